@@ -1,0 +1,63 @@
+"""The ``mgdata`` command line.
+
+Each command lives next to the code it drives (``mgdata/<area>/commands.py``) and is registered below, so
+this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) print one line and
+exit with status 2; anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+from rich.console import Console
+
+from mgdata import __version__
+from mgdata.errors import MgdataError
+
+app = typer.Typer(
+    name="mgdata",
+    help=(
+        "Generate safety-annotated robot-manipulation demonstrations in MuJoCo and export them as LeRobot "
+        "datasets.\n\nExample: mgdata generate --family jar --n 40"
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"mgdata {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version,
+                                 is_eager=True),
+) -> None:
+    """mgdata: safety-annotated manipulation demonstrations."""
+
+
+# --- command registry: one line per command module -------------------------------------------------------
+# (each module exposes ``register(app)``)
+COMMAND_MODULES: tuple[str, ...] = ()
+
+
+def _register_all() -> None:
+    import importlib
+
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(app)
+
+
+def main() -> None:
+    """Console-script entry point: run the app, turning user errors into one line and exit status 2."""
+    _register_all()
+    try:
+        app()  # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
+    except MgdataError as err:
+        Console(stderr=True).print(f"[bold red]error:[/] {err}", highlight=False, soft_wrap=True)
+        sys.exit(2)

@@ -1,0 +1,122 @@
+"""The episode record: what every demonstration source (planner, GELLO, SO-101) hands to a dataset sink.
+
+This is the contract between the recorder (``mgdata.record.recorder``) and the writers: a
+:class:`DatasetSchema` fixed per dataset, a stream of :class:`Frame` per control step, and one
+:class:`EpisodeMeta` when the episode ends. A sink stores an episode entirely or not at all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+STATE_NAMES: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8)) + ("gripper_opening",)
+ACTION_NAMES: tuple[str, ...] = tuple(f"joint{i}_target" for i in range(1, 8)) + ("gripper_command",)
+
+
+@dataclass(frozen=True)
+class DatasetSchema:
+    """Everything about a dataset's features that is fixed before the first frame.
+
+    ``cameras`` are bare names (``"front"``); the LeRobot key is ``observation.images.<camera>``.
+    ``propositions`` and ``constraints`` give the column order of the safety features.
+    """
+
+    fps: int
+    cameras: tuple[str, ...]
+    image_height: int
+    image_width: int
+    propositions: tuple[str, ...]
+    constraints: tuple[str, ...]
+    robot_type: str = "franka_panda"
+    state_names: tuple[str, ...] = STATE_NAMES
+    action_names: tuple[str, ...] = ACTION_NAMES
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One control step.
+
+    Attributes:
+        state: float32 (8,): measured arm joints (rad) + gripper opening (m).
+        action: float32 (8,): commanded arm joint targets (rad) + gripper command (1 close, 0 open).
+        images: camera name -> uint8 (H, W, 3) RGB.
+        labels: bool (n_propositions,): truth of each proposition, in schema order.
+        dfa_state: int16 (n_constraints,): each constraint's DFA state after this step.
+        violated: bool (n_constraints,): latched violation flag of each constraint.
+        engaged: whether first engagement has happened at or before this step (latched).
+        success: whether the family's success predicate holds at this step (not latched).
+    """
+
+    state: np.ndarray
+    action: np.ndarray
+    images: Mapping[str, np.ndarray]
+    labels: np.ndarray
+    dfa_state: np.ndarray
+    violated: np.ndarray
+    engaged: bool
+    success: bool
+
+
+@dataclass(frozen=True)
+class EpisodeMeta:
+    """Per-episode facts, stored in the episodes table so they are readable without decoding video.
+
+    Step indices (``t_engage``, ``t_violation``) count control steps from 0; ``None`` means never.
+    ``verdict`` is the paper's ν: True unless the first violation happens at or after first engagement.
+    ``kept`` says whether the gate accepted the episode (negatives kept with ``--keep-failed`` are False).
+    """
+
+    family: str
+    task_id: int
+    condition: str
+    prompt: str
+    spec_name: str
+    formulas: Mapping[str, str]
+    seed: int
+    draw_index: int
+    success: bool
+    verdict: bool
+    kept: bool
+    t_engage: int | None
+    t_violation: Mapping[str, int | None]
+    failure_stage: str | None = None
+    failure_reason: str | None = None
+    grasp_id: str | None = None
+    variation: Mapping[str, Any] = field(default_factory=dict)
+    source: str = "planner"
+    software_version: str = ""
+
+
+class EpisodeSink(Protocol):
+    """Where the recorder sends an episode. Nothing is visible in the dataset until ``end_episode``."""
+
+    def add_frame(self, frame: Frame) -> None:
+        """Append one control step to the episode in progress (starting one if none is)."""
+
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        """Commit the episode in progress atomically."""
+
+    def discard_episode(self) -> None:
+        """Drop the episode in progress; the dataset is unchanged."""
+
+
+class MemorySink:
+    """Keeps whole episodes in memory: for tests and short interactive runs."""
+
+    def __init__(self) -> None:
+        self.episodes: list[tuple[list[Frame], EpisodeMeta]] = []
+        self._frames: list[Frame] = []
+
+    def add_frame(self, frame: Frame) -> None:
+        self._frames.append(frame)
+
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        self.episodes.append((self._frames, meta))
+        self._frames = []
+
+    def discard_episode(self) -> None:
+        self._frames = []
