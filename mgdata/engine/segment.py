@@ -1,0 +1,112 @@
+"""MotionSegment: one step of a demonstration, as a family skeleton lists it.
+
+Five kinds, each with only the options it needs:
+
+* ``free``: collision-free joint-space motion (IK for the target, then OMPL + toppra) to ``target``;
+* ``linear``: straight TCP line to ``target``, orientation held or slerped;
+* ``gripper``: open or close the gripper, arm still, for ``steps`` control steps;
+* ``reverse``: replay an earlier segment (``of``) backwards;
+* ``hold``: keep the last command for up to ``steps`` steps (the executor stops early once the gate passes).
+
+A target is a :class:`~mgdata.motion.types.Pose` of the TCP in the world, or the name of a runtime target
+that the skeleton's ``resolve`` computes from the live state when the segment starts. ``allow`` lists the body
+pairs that may touch while planning (``("hand", "jar")``); ``attached`` names an object held by the gripper
+(it moves with the TCP in collision checks). ``gripper`` is the gripper command sent during the segment.
+
+Example::
+
+    segs = [
+        free("pre_grasp", "pre_grasp"),
+        linear("approach", "grasp", allow=(("hand", "jar"),)),
+        gripper("close", "close", steps=12),
+        linear("lift", "lift", gripper="close", attached="jar", allow=(("hand", "jar"), ("jar", "table"))),
+    ]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from mgdata.motion.types import NO_CONTACTS, AllowedContacts, Pose
+
+SegmentKind = Literal["free", "linear", "gripper", "reverse", "hold"]
+GripperCommand = Literal["open", "close"]
+KINDS: tuple[str, ...] = ("free", "linear", "gripper", "reverse", "hold")
+
+Pairs = tuple[tuple[str, str], ...]
+
+
+@dataclass(frozen=True)
+class MotionSegment:
+    """One segment; build it with :func:`free`, :func:`linear`, :func:`gripper`, :func:`reverse` or
+    :func:`hold`.
+
+    Attributes:
+        name: unique within the demonstration (used in failure reports and by ``reverse``).
+        kind: one of :data:`KINDS`.
+        target: free/linear only: a world TCP pose or a runtime-target name.
+        gripper: the gripper command during the segment (for ``gripper`` segments: the new command).
+        allow: body pairs allowed to be in contact while planning and re-checking.
+        attached: body name of an object carried in the gripper during the segment.
+        orientation: linear only: ``"hold"`` the start orientation or ``"slerp"`` to the target's.
+        of: reverse only: the name of the earlier segment to replay backwards.
+        steps: gripper/hold only: control steps.
+    """
+
+    name: str
+    kind: SegmentKind
+    target: Pose | str | None = None
+    gripper: GripperCommand = "open"
+    allow: AllowedContacts = NO_CONTACTS
+    attached: str | None = None
+    orientation: Literal["hold", "slerp"] = "hold"
+    of: str | None = None
+    steps: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"segment {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+        if self.gripper not in ("open", "close"):
+            raise ValueError(f"segment {self.name!r}: gripper must be 'open' or 'close' ({self.gripper!r})")
+        moving = self.kind in ("free", "linear")
+        if moving != (self.target is not None):
+            raise ValueError(f"segment {self.name!r}: a target is required for free/linear segments only")
+        if (self.kind == "reverse") != (self.of is not None):
+            raise ValueError(f"segment {self.name!r}: 'of' is required for reverse segments only")
+        if self.kind in ("gripper", "hold") and self.steps < 1:
+            raise ValueError(f"segment {self.name!r}: {self.kind} segments need steps >= 1")
+        if self.orientation not in ("hold", "slerp"):
+            raise ValueError(f"segment {self.name!r}: orientation must be 'hold' or 'slerp'")
+
+
+def _allow(pairs: Pairs | AllowedContacts) -> AllowedContacts:
+    return pairs if isinstance(pairs, AllowedContacts) else AllowedContacts(tuple(pairs))
+
+
+def free(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
+         attached: str | None = None) -> MotionSegment:
+    """Collision-free joint-space motion to a TCP target."""
+    return MotionSegment(name, "free", target, gripper, _allow(allow), attached)
+
+
+def linear(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
+           attached: str | None = None, orientation: Literal["hold", "slerp"] = "hold") -> MotionSegment:
+    """Straight TCP line to a target."""
+    return MotionSegment(name, "linear", target, gripper, _allow(allow), attached, orientation)
+
+
+def gripper(name: str, command: GripperCommand, *, steps: int) -> MotionSegment:
+    """Open or close the gripper with the arm still."""
+    return MotionSegment(name, "gripper", gripper=command, steps=steps)
+
+
+def reverse(name: str, of: str, *, gripper: GripperCommand = "open", allow: Pairs = (),
+            attached: str | None = None) -> MotionSegment:
+    """Replay the executed joint trajectory of segment ``of`` backwards."""
+    return MotionSegment(name, "reverse", gripper=gripper, allow=_allow(allow), attached=attached, of=of)
+
+
+def hold(name: str, *, steps: int, gripper: GripperCommand = "open") -> MotionSegment:
+    """Keep the arm where it is for up to ``steps`` control steps."""
+    return MotionSegment(name, "hold", gripper=gripper, steps=steps)
