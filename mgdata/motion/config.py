@@ -1,0 +1,155 @@
+"""MotionConfig: the motion layer's tunables, loaded from ``recipes/motion.toml``.
+
+Every field has a default, so a missing file section or key falls back to it; an unknown section or key, or a
+value of the wrong type or sign, raises :class:`~mgdata.errors.RecipeError` naming the file, the key and what
+was expected.
+
+Example::
+
+    config = load_motion_config()                    # recipes/motion.toml
+    config = MotionConfig(retime=RetimeConfig(speed_scale=0.3))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mgdata.errors import RecipeError
+from mgdata.paths import recipes_dir
+
+
+@dataclass(frozen=True)
+class IKConfig:
+    """mink differential IK on the TCP site, with seeded restarts."""
+
+    pos_tol: float = 5e-4  # m, position residual that counts as solved
+    rot_tol: float = 5e-3  # rad, orientation residual that counts as solved
+    max_iters: int = 60  # QP steps per attempt
+    restarts: int = 12  # extra attempts from perturbed seeds after the first (seeded at q_seed)
+    restart_sigma: float = 0.6  # rad, std of the largest seed perturbation (attempt k uses k/restarts of it)
+    posture_cost: float = 1e-2  # weight of the pull toward the posture target (HOME_Q, or the seed)
+    polish_radius: float = 0.01  # m; closer than this the posture task stops pulling (exact convergence)
+    damping: float = 1e-4  # Levenberg-Marquardt damping of every QP
+    limit_margin: float = 0.02  # rad kept between a solution and each joint limit
+    solver: str = "daqp"  # qpsolvers backend
+
+
+@dataclass(frozen=True)
+class CheckConfig:
+    """Collision checking: robot (and held-object) geoms are inflated while planning, exact on recheck."""
+
+    margin: float = 0.01  # m, inflation of robot and held-object geoms against the world while planning
+    self_margin: float = 0.0  # m, clearance required between the robot's own links
+    resolution: float = 0.002  # OMPL motion-check step, as a fraction of the joint space's extent
+    recheck_step: float = 0.01  # rad, largest joint step between two exact checks of a finished trajectory
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """OMPL RRTConnect in joint space; budgets are iteration counts, never wall time (determinism)."""
+
+    max_iterations: int = 20000  # planner loop iterations before plan_fail
+    range: float = 0.0  # rad, RRTConnect extension length (0: OMPL's default, 20 % of the extent)
+    reduce_steps: int = 30  # PathSimplifier.reduceVertices attempts
+    shortcut_steps: int = 30  # PathSimplifier.partialShortcutPath attempts
+    smooth: bool = True  # round the corners with smoothBSpline (checked, so never less safe)
+    waypoint_step: float = 0.08  # rad, densify the simplified path to this step before retiming
+
+
+@dataclass(frozen=True)
+class RetimeConfig:
+    """toppra time-optimal parameterisation under scaled Panda limits, sampled at the control rate."""
+
+    rate: float = 20.0  # Hz, control and recording rate of the output samples
+    speed_scale: float = 0.5  # fraction of the Panda's joint velocity limits
+    accel_scale: float = 0.3  # fraction of the Panda's joint acceleration limits
+    gridpoints_per_waypoint: int = 4  # toppra grid density (at least 100 points in all)
+
+
+@dataclass(frozen=True)
+class LinearConfig:
+    """Straight TCP lines by chained IK."""
+
+    step: float = 0.005  # m between IK waypoints
+    rot_step: float = 0.05  # rad between IK waypoints (slerp)
+    max_joint_step: float = 0.12  # rad, a larger joint change between waypoints is a discontinuity
+    speed: float = 0.12  # m/s, TCP speed cap
+    angular_speed: float = 0.6  # rad/s, TCP angular speed cap
+    accel: float = 0.6  # m/s², TCP acceleration cap along the line
+    angular_accel: float = 3.0  # rad/s², TCP angular acceleration cap
+    check_margin: float = 0.0  # m, inflation while checking a line (lines end in deliberate contact)
+    max_line_error: float = 0.002  # m, allowed deviation of the retimed samples from the line
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """All motion tunables; see ``recipes/motion.toml`` for the shipped values."""
+
+    ik: IKConfig = field(default_factory=IKConfig)
+    check: CheckConfig = field(default_factory=CheckConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    retime: RetimeConfig = field(default_factory=RetimeConfig)
+    linear: LinearConfig = field(default_factory=LinearConfig)
+
+    def __post_init__(self) -> None:
+        for section in dataclasses.fields(self):
+            _validate(getattr(self, section.name), section.name, "MotionConfig")
+
+
+def _validate(obj: Any, section: str, source: str) -> None:
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.type in ("float", "int") and value < 0:
+            raise RecipeError(f"{source}: [{section}] {f.name} = {value!r} must not be negative")
+    rate = getattr(obj, "rate", None)
+    if rate is not None and rate <= 0:
+        raise RecipeError(f"{source}: [{section}] rate = {rate!r} must be positive")
+
+
+def _coerce(value: Any, type_name: str, where: str) -> Any:
+    expected = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}[type_name]
+    if (isinstance(value, bool) and type_name != "bool") or not isinstance(value, expected):
+        raise RecipeError(f"{where} = {value!r}: expected a {type_name}")
+    return float(value) if type_name == "float" else value
+
+
+def motion_config_from_dict(raw: dict[str, Any], source: str = "<dict>") -> MotionConfig:
+    """Build a MotionConfig from parsed TOML, rejecting unknown sections/keys and mistyped values."""
+    sections = {f.name: f for f in dataclasses.fields(MotionConfig)}
+    kwargs: dict[str, Any] = {}
+    for name, table in raw.items():
+        if name not in sections:
+            raise RecipeError(f"{source}: unknown section [{name}]; expected one of {sorted(sections)}")
+        if not isinstance(table, dict):
+            raise RecipeError(f"{source}: [{name}] must be a table of keys")
+        cls = sections[name].default_factory  # type: ignore[misc]
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        values = {}
+        for key, value in table.items():
+            if key not in fields:
+                raise RecipeError(f"{source}: unknown key [{name}] {key}; expected one of {sorted(fields)}")
+            values[key] = _coerce(value, str(fields[key].type), f"{source}: [{name}] {key}")
+        kwargs[name] = cls(**values)
+    try:
+        config = MotionConfig(**kwargs)
+    except RecipeError as exc:
+        raise RecipeError(str(exc).replace("MotionConfig", source)) from None
+    return config
+
+
+def load_motion_config(path: Path | str | None = None) -> MotionConfig:
+    """Load ``recipes/motion.toml`` (or ``path``); a missing default file means all defaults."""
+    file = Path(path) if path is not None else recipes_dir() / "motion.toml"
+    if not file.is_file():
+        if path is not None:
+            raise RecipeError(f"motion config {file} does not exist")
+        return MotionConfig()
+    try:
+        raw = tomllib.loads(file.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise RecipeError(f"{file}: not valid TOML: {exc}") from exc
+    return motion_config_from_dict(raw, str(file))
