@@ -17,7 +17,7 @@ import numpy as np
 
 from mgdata.paths import cache_dir
 
-_ALGO_VERSION = "quadric-v1"
+_ALGO_VERSION = "quadric-v2"
 MIN_FACES = 300
 """Meshes with fewer faces than this are kept as they are."""
 
@@ -33,8 +33,10 @@ def _decimate(source: Path, ratio: float) -> tuple[np.ndarray, np.ndarray]:
     import fast_simplification
     import trimesh
 
-    # process=True merges duplicated vertices first; without it the mesh collapses into specks.
-    mesh = trimesh.load(str(source), process=True, force="mesh")
+    # Vertices must be merged first, or the mesh collapses into specks. OBJ files keep vertices split by
+    # normals/texture coordinates, so rebuild the mesh from bare positions and faces before processing.
+    loaded = trimesh.load(str(source), force="mesh")
+    mesh = trimesh.Trimesh(np.asarray(loaded.vertices), np.asarray(loaded.faces), process=True)
     verts = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if len(faces) >= MIN_FACES:

@@ -1,0 +1,95 @@
+"""The asset library: stable model names ``category/stem_NN`` mapped to seeded procedural builders.
+
+A model's parameters are drawn from a generator seeded by the SHA-256 of its own name, so ``jar/hinged_03``
+is the same object on every machine and does not change when variants are added. ``VARIANTS`` says how many
+numbered variants each kind exposes; raising a count grows the library without touching existing models.
+
+Example::
+
+    from mgdata.sim.assets import get_model, model_names
+    model_names("jar")[:2]          # ['jar/hinged_00', 'jar/hinged_01']
+    jar = get_model("jar/hinged_03")
+    jar.geometry["outer_radius"]
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from mgdata.errors import AssetError
+from mgdata.sim.assets import jar
+from mgdata.sim.assets.food import food_builder
+from mgdata.sim.assets.granular import build_dust, build_liquid
+from mgdata.sim.assets.model import ObjectModel
+
+Builder = Callable[[str, int, np.random.Generator], ObjectModel]
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One procedural kind: models ``<category>/<stem>_00`` … ``_<count-1>`` built by ``build``."""
+
+    category: str
+    stem: str
+    count: int
+    build: Builder
+
+
+def _kinds() -> tuple[Kind, ...]:
+    kinds = [Kind("jar", "hinged", 16, jar.build_hinged_jar)]
+    kinds += [Kind("food", k, 8, food_builder(k)) for k in ("cherry", "cookie", "candy", "olive", "nugget")]
+    kinds += [Kind("liquid", "water", 8, build_liquid), Kind("dust", "layer", 8, build_dust)]
+    return tuple(kinds)
+
+
+KINDS: tuple[Kind, ...] = _kinds()
+
+
+def _index() -> dict[str, Kind]:
+    return {f"{k.category}/{k.stem}_{i:02d}": k for k in KINDS for i in range(k.count)}
+
+
+_BY_NAME: dict[str, Kind] = _index()
+
+
+def model_seed(name: str) -> int:
+    """The seed of a model: the first 8 bytes of SHA-256 of its name (stable across runs and machines)."""
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
+
+
+def categories() -> list[str]:
+    """All categories, sorted."""
+    return sorted({k.category for k in KINDS})
+
+
+def model_names(category: str | None = None) -> list[str]:
+    """All model names (sorted), or those of one ``category``.
+
+    Raises:
+        AssetError: ``category`` is not a known category.
+    """
+    if category is not None and category not in categories():
+        raise AssetError(f"unknown object category {category!r}; known: {', '.join(categories())}")
+    return sorted(n for n in _BY_NAME if category is None or n.split("/", 1)[0] == category)
+
+
+@cache
+def get_model(name: str) -> ObjectModel:
+    """The model called ``name`` (built once per process, then cached).
+
+    Raises:
+        AssetError: no such model; the message lists close names.
+    """
+    kind = _BY_NAME.get(name)
+    if kind is None:
+        close = difflib.get_close_matches(name, list(_BY_NAME), n=5, cutoff=0.5)
+        hint = f"; did you mean {', '.join(close)}?" if close else f"; categories: {', '.join(categories())}"
+        raise AssetError(f"unknown object model {name!r} (expected 'category/model'){hint}")
+    seed = model_seed(name)
+    return kind.build(name, seed, np.random.default_rng(seed))

@@ -1,0 +1,165 @@
+"""Particle sets: liquid as free spheres in a container, dust as visual specks that wiping removes.
+
+MuJoCo 4 has no particle composites, so each sphere is its own body.
+
+* **Liquid** instance ``water`` (model ``liquid/…``): an anchor body ``water`` at the placement point and
+  free bodies ``water/p000``… (geoms of the same names) packed in hexagonal layers into the cavity of the
+  container whose cavity holds the placement point. The scene switches to CG + elliptic cone (see
+  ``world.Physics``). ``spilled`` counts the spheres outside that cavity.
+* **Dust** instance ``dust`` (model ``dust/…``): mocap bodies ``dust/d000``… carrying flat visual discs
+  (no contacts). A speck is wiped when it lies inside (5 mm margin) any colliding geom of a ``sponge``
+  object; wiping parks its mocap body below the floor. Mocap positions are part of MuJoCo's integration
+  state, so snapshots, resets and determinism cover the dust too.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import mujoco
+import numpy as np
+
+from mgdata.errors import SceneError
+from mgdata.sim.assets import ObjectModel
+from mgdata.tasks.taskspec import TaskSpec
+
+PARK_Z = -10.0
+"""Height (m) where wiped dust specks are parked (far below the floor, out of every camera's view)."""
+WIPE_MARGIN = 0.005
+FILL_CLEARANCE = 0.0015
+DUST_THICKNESS = 0.0008
+WIPER_CATEGORY = "sponge"
+
+
+def particle_models(models: Mapping[str, ObjectModel]) -> dict[str, ObjectModel]:
+    """The particle instances among ``models``."""
+    return {name: m for name, m in models.items() if m.particles is not None}
+
+
+def _yaw_rot(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _host(task: TaskSpec, models: Mapping[str, ObjectModel], name: str) -> tuple[str, np.ndarray]:
+    """The container instance whose cavity holds the liquid's placement point, and that point locally."""
+    point = np.asarray(task.object(name).pos, dtype=np.float64)
+    for obj in task.objects:
+        cavity = models[obj.name].cavity
+        if cavity is None:
+            continue
+        local = _yaw_rot(obj.yaw).T @ (point - np.asarray(obj.pos))
+        if cavity.contains(local[None, :], margin=1e-6, headroom=0.0)[0]:
+            return obj.name, local
+    raise SceneError(f"liquid {name!r} at {tuple(point)} is not inside any container's cavity")
+
+
+def _pack(model: ObjectModel, host: ObjectModel, local: np.ndarray, name: str) -> np.ndarray:
+    """Local (host-frame) centres of the liquid's spheres, hexagonally packed from the cavity floor up."""
+    assert model.particles is not None and host.cavity is not None
+    cav, r = host.cavity, model.particles.radius
+    pitch = 2.0 * r + 0.0005
+    z = max(cav.floor_z, local[2]) + r + 0.001
+    centres: list[np.ndarray] = []
+    layer = 0
+    while len(centres) < model.particles.count:
+        if z + r > cav.rim_z:
+            raise SceneError(
+                f"liquid {name!r} ({model.particles.count} spheres of {r * 1000:.1f} mm) does not fit in "
+                f"{host.name}'s cavity (rim at {cav.rim_z:.3f} m); use fewer spheres or a larger container"
+            )
+        n = int(np.ceil(0.3 / pitch))
+        i, j = np.meshgrid(np.arange(-n, n + 1), np.arange(-n, n + 1), indexing="ij")
+        row = pitch * np.sqrt(3.0) / 2.0
+        grid = np.column_stack([((i + 0.5 * (j % 2)) * pitch + 0.5 * pitch * (layer % 2)).ravel(),
+                                (j * row + row / 3.0 * (layer % 2)).ravel()])
+        pts = np.column_stack([grid, np.full(len(grid), z)])
+        if cav.shape == "round":
+            t = (z - cav.floor_z) / (cav.rim_z - cav.floor_z)
+            rad = (cav.radius_floor + t * (cav.radius_rim - cav.radius_floor)) * np.cos(np.pi / 16)
+            ok = np.hypot(pts[:, 0], pts[:, 1]) <= rad - r - FILL_CLEARANCE
+        else:
+            ok = (np.abs(pts[:, 0]) <= cav.half_x - r - FILL_CLEARANCE) & (
+                np.abs(pts[:, 1]) <= cav.half_y - r - FILL_CLEARANCE)
+        pts = pts[ok]
+        pts = pts[np.lexsort((pts[:, 1], pts[:, 0], np.hypot(pts[:, 0], pts[:, 1]).round(9)))]
+        centres.extend(pts[: model.particles.count - len(centres)])
+        z += pitch
+        layer += 1
+    return np.array(centres)
+
+
+def add_particles(spec: mujoco.MjSpec, task: TaskSpec, models: Mapping[str, ObjectModel],
+                  particles: Mapping[str, ObjectModel]) -> None:
+    """Add the bodies of every particle instance (see module docstring) to ``spec``."""
+    for name, model in particles.items():
+        p = model.particles
+        assert p is not None
+        placement = task.object(name)
+        spec.worldbody.add_body(name=name, pos=list(placement.pos)).add_site(name=f"{name}/anchor", group=4)
+        if p.kind == "liquid":
+            host_name, local = _host(task, models, name)
+            host = task.object(host_name)
+            centres = _pack(model, models[host_name], local, name)
+            world = centres @ _yaw_rot(host.yaw).T + np.asarray(host.pos)
+            for i, c in enumerate(world):
+                body = spec.worldbody.add_body(name=f"{name}/p{i:03d}", pos=c.tolist())
+                body.add_freejoint(name=f"{name}/p{i:03d}/free")
+                body.add_geom(name=f"{name}/p{i:03d}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                              size=[p.radius, 0.0, 0.0], mass=p.mass, rgba=list(model.rgba),
+                              friction=[model.friction, 0.0, 0.0], group=0)
+        else:
+            assert p.layout is not None
+            xy = p.layout @ _yaw_rot(placement.yaw)[:2, :2].T + np.asarray(placement.pos[:2])
+            for i, (x, y) in enumerate(xy):
+                body = spec.worldbody.add_body(name=f"{name}/d{i:03d}", mocap=True,
+                                               pos=[float(x), float(y), placement.pos[2] + DUST_THICKNESS])
+                body.add_geom(name=f"{name}/d{i:03d}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                              size=[p.radius, DUST_THICKNESS / 2.0, 0.0], rgba=list(model.rgba),
+                              contype=0, conaffinity=0, group=2, mass=0.0)
+
+
+class LiquidSet:
+    """The spheres of one liquid instance: ``body_ids`` (count,)."""
+
+    def __init__(self, model: mujoco.MjModel, name: str, count: int) -> None:
+        self.name = name
+        self.body_ids = np.array([model.body(f"{name}/p{i:03d}").id for i in range(count)], dtype=np.int32)
+
+    def positions(self, data: mujoco.MjData) -> np.ndarray:
+        return data.xpos[self.body_ids]
+
+
+class DustField:
+    """The dust specks of every dust instance in a scene and the sponge geoms that wipe them."""
+
+    def __init__(self, model: mujoco.MjModel, dust: Mapping[str, int], wiper_geoms: np.ndarray) -> None:
+        self.mocap_ids = {
+            name: np.array([model.body_mocapid[model.body(f"{name}/d{i:03d}").id] for i in range(n)],
+                           dtype=np.int32)
+            for name, n in dust.items()
+        }
+        self._all = np.concatenate(list(self.mocap_ids.values())) if dust else np.zeros(0, dtype=np.int32)
+        self.wiper_geoms = np.asarray(wiper_geoms, dtype=np.int32)
+        self._half = model.geom_aabb[self.wiper_geoms, 3:] + WIPE_MARGIN
+        self._centre = model.geom_aabb[self.wiper_geoms, :3]
+
+    def remaining_fraction(self, data: mujoco.MjData, name: str) -> float:
+        """Fraction of ``name``'s specks not yet wiped."""
+        ids = self.mocap_ids[name]
+        return float(np.count_nonzero(data.mocap_pos[ids, 2] > PARK_Z / 2.0)) / len(ids)
+
+    def update(self, data: mujoco.MjData) -> int:
+        """Park every speck a wiper geom now covers; returns how many were wiped."""
+        if not len(self._all) or not len(self.wiper_geoms):
+            return 0
+        pos = data.mocap_pos[self._all]
+        live = pos[:, 2] > PARK_Z / 2.0
+        hit = np.zeros(len(self._all), dtype=bool)
+        for k, g in enumerate(self.wiper_geoms):
+            rot = data.geom_xmat[g].reshape(3, 3)
+            local = (pos - data.geom_xpos[g]) @ rot - self._centre[k]
+            hit |= np.all(np.abs(local) <= self._half[k], axis=1)
+        wiped = self._all[hit & live]
+        data.mocap_pos[wiped, 2] = PARK_Z
+        return len(wiped)
