@@ -1,0 +1,349 @@
+"""The LeRobot v3.0 dataset writer (pyarrow + PyAV, no torch).
+
+Episodes are appended whole: each is staged (encoded while its frames arrive, see
+:mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
+camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
+rewrites tasks, stats and ``info.json`` — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
+process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
+size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
+
+Example::
+
+    with DatasetWriter.create(root, schema, spec=spec) as writer:
+        for frame in frames:
+            writer.add_frame(frame)
+        writer.end_episode(meta)
+    writer = DatasetWriter.open(root)          # resume: continues appending
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from mgdata.errors import DatasetError
+from mgdata.record import layout
+from mgdata.record.commit import Transaction, WriterLock, recover, work_dir
+from mgdata.record.episode import DatasetSchema, EpisodeMeta, Frame
+from mgdata.record.episodes import (
+    EpisodeRecord,
+    VideoSpan,
+    record_to_table,
+    records_from_table,
+    stats_features,
+)
+from mgdata.record.metafiles import (
+    build_info,
+    dump_json,
+    read_info,
+    read_tasks,
+    schema_from_info,
+    video_settings_from_info,
+    write_tasks,
+)
+from mgdata.record.staging import EpisodeStager, StagedEpisode
+from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
+from mgdata.record.video import VideoSettings, remux
+from mgdata.spec import SafetySpec
+
+_MB = 1024 * 1024
+
+
+class DatasetWriter:
+    """Appends episodes to a LeRobot v3.0 dataset; also an ``EpisodeSink`` for a recorder.
+
+    Attributes:
+        root: the dataset folder.
+        schema: its :class:`DatasetSchema`; ``video``: its :class:`VideoSettings`.
+    """
+
+    def __init__(self, root: Path, info: dict, lock: WriterLock) -> None:
+        self.root = root
+        self._info = info
+        self._lock: WriterLock | None = lock
+        self.schema = schema_from_info(info, str(root / layout.INFO_PATH))
+        self.video = video_settings_from_info(info, str(root / layout.INFO_PATH))
+        self._frame_cols = layout.frame_columns(self.schema)
+        self._records: list[EpisodeRecord] = []
+        self._tasks: list[str] = []
+        self._values: dict[str, list[np.ndarray]] = {c.key: [] for c in layout.all_columns(self.schema)}
+        self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
+        self._episodes_table: pa.Table | None = None
+        self._stager: EpisodeStager | None = None
+
+    # --- construction ------------------------------------------------------------------------------------
+
+    @classmethod
+    def create(cls, root: Path, schema: DatasetSchema, *, codec: str = "h264", crf: int | None = None,
+               preset: str | None = None, gop: int = 10, spec: SafetySpec | None = None,
+               chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
+               video_file_mb: int = layout.VIDEO_FILE_MB,
+               video_file_seconds: float = layout.VIDEO_FILE_SECONDS) -> DatasetWriter:
+        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``."""
+        root = Path(root)
+        if root.exists() and any(root.iterdir()):
+            raise DatasetError(f"{root}: already exists and is not empty (use DatasetWriter.open to resume)")
+        if spec is not None:
+            if spec.proposition_names != schema.propositions:
+                raise DatasetError(f"spec propositions {list(spec.proposition_names)} differ from the "
+                                   f"schema's {list(schema.propositions)}")
+            if tuple(c.id for c in spec.constraints) != schema.constraints:
+                raise DatasetError(f"spec constraints {[c.id for c in spec.constraints]} differ from the "
+                                   f"schema's {list(schema.constraints)}")
+        video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
+        info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
+                          video_file_mb=video_file_mb, video_file_seconds=video_file_seconds)
+        root.mkdir(parents=True, exist_ok=True)
+        writer = cls(root, info, WriterLock(root))
+        if writer.schema != schema:
+            raise DatasetError(f"schema does not survive info.json: {schema} vs {writer.schema}")
+        tx = Transaction(root)
+        tx.path(layout.INFO_PATH).write_text(dump_json(info))
+        tx.commit()
+        return writer
+
+    @classmethod
+    def open(cls, root: Path, schema: DatasetSchema | None = None) -> DatasetWriter:
+        """Resume an existing dataset: finish or drop an interrupted commit, drop unfinished staged work,
+        check ``schema`` (if given) matches, and continue appending after the last complete episode."""
+        root = Path(root)
+        if not (root / layout.INFO_PATH).exists() and not (root / layout.WORK_DIR).exists():
+            raise DatasetError(f"{root}: no dataset here ({layout.INFO_PATH} missing)")
+        lock = WriterLock(root)
+        try:
+            recover(root)
+            shutil.rmtree(work_dir(root) / "staging", ignore_errors=True)
+            info = read_info(root / layout.INFO_PATH)
+            writer = cls(root, info, lock)
+            if schema is not None and schema != writer.schema:
+                raise DatasetError(f"{root}: dataset schema {writer.schema} differs from the requested "
+                                   f"{schema}")
+            writer._load()
+        except BaseException:
+            lock.release()
+            raise
+        return writer
+
+    def _load(self) -> None:
+        from mgdata.record.reader import read_parquet  # the reader owns parquet error handling
+
+        total = self._info["total_episodes"]
+        self._tasks = read_tasks(self.root / layout.TASKS_PATH) if total else []
+        files = sorted({layout.episodes_path(r) for r in self._ref_list()})
+        for rel in files:
+            table = read_parquet(self.root / rel)
+            self._records += records_from_table(table, self.schema, str(self.root / rel))
+        if [r.index for r in self._records] != list(range(total)):
+            raise DatasetError(f"{self.root}: episodes table has {len(self._records)} rows, info.json says "
+                               f"{total}")
+        if self._records:
+            self._episodes_table = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
+        for rel in sorted({layout.data_path(r.data) for r in self._records}):
+            table = read_parquet(self.root / rel)
+            for col in layout.all_columns(self.schema):
+                self._values[col.key].append(col.from_arrow(table.column(col.key)))
+        for rec in self._records:
+            for key, hist in rec.histograms.items():
+                self._hist_sum[key] += hist
+
+    def _ref_list(self) -> list[layout.FileRef]:
+        return [layout.FileRef(c, f) for c, f in _episode_file_refs(self.root)]
+
+    # --- queries -----------------------------------------------------------------------------------------
+
+    @property
+    def num_episodes(self) -> int:
+        return len(self._records)
+
+    @property
+    def num_frames(self) -> int:
+        return int(self._info["total_frames"])
+
+    def episodes_meta(self) -> list[EpisodeMeta]:
+        """The metadata of every committed episode, in episode order."""
+        return [r.meta for r in self._records]
+
+    def stager(self, path: Path) -> EpisodeStager:
+        """An :class:`EpisodeStager` with this dataset's schema and video settings (e.g. for a worker)."""
+        return EpisodeStager(Path(path), self.schema, self.video)
+
+    def record_attempts(self, attempts: int) -> None:
+        """Note how many attempts produced this dataset (for the yield in ``mgdata info``); written at the
+        next commit or on close."""
+        self._info["mgdata"]["attempts"] = int(attempts)
+
+    # --- EpisodeSink -------------------------------------------------------------------------------------
+
+    def add_frame(self, frame: Frame) -> None:
+        if self._stager is None:
+            self._stager = self.stager(work_dir(self.root) / "staging" / "episode")
+        self._stager.add_frame(frame)
+
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        if self._stager is None:
+            raise DatasetError("end_episode() without any add_frame()")
+        stager, self._stager = self._stager, None
+        try:
+            stager.end_episode(meta)
+        except BaseException:
+            stager.discard_episode()
+            raise
+        self.append_staged(stager.path)
+
+    def discard_episode(self) -> None:
+        if self._stager is not None:
+            self._stager.discard_episode()
+            self._stager = None
+
+    # --- appending ---------------------------------------------------------------------------------------
+
+    def append_staged(self, path: Path, *, remove: bool = True) -> int:
+        """Append a staged episode folder (see :class:`EpisodeStager`); returns its episode index.
+
+        Its videos are copied packet by packet (no re-encode). ``remove`` deletes the folder afterwards.
+        """
+        staged = StagedEpisode.load(Path(path))
+        if staged.schema != self.schema:
+            raise DatasetError(f"{path}: staged with schema {staged.schema}, the dataset has {self.schema}")
+        if staged.video != self.video:
+            raise DatasetError(f"{path}: staged with video settings {staged.video}, the dataset has "
+                               f"{self.video}")
+        table = staged.frames_table()
+        tx = Transaction(self.root)
+        try:
+            state = self._commit_episode(staged, table, tx)
+            tx.commit()
+        except BaseException:
+            tx.abort()
+            raise
+        self._apply(*state)
+        if remove:
+            shutil.rmtree(staged.path)
+        return self._records[-1].index
+
+    def _commit_episode(self, staged: StagedEpisode, frames: pa.Table, tx: Transaction) -> tuple:
+        s, info = self.schema, self._info
+        ep, length, start = len(self._records), staged.length, int(info["total_frames"])
+        last = self._records[-1] if self._records else None
+        tasks = list(self._tasks)
+        if staged.task not in tasks:
+            tasks.append(staged.task)
+        task_index = tasks.index(staged.task)
+
+        # data rows
+        index_values = {
+            "timestamp": layout.timestamps(length, s.fps).reshape(-1, 1),
+            "frame_index": np.arange(length, dtype=np.int64).reshape(-1, 1),
+            "episode_index": np.full((length, 1), ep, np.int64),
+            "index": np.arange(start, start + length, dtype=np.int64).reshape(-1, 1),
+            "task_index": np.full((length, 1), task_index, np.int64),
+        }
+        values = {c.key: c.from_arrow(frames.column(c.key)) for c in self._frame_cols} | index_values
+        rows = pa.Table.from_arrays([c.to_arrow(values[c.key]) for c in layout.all_columns(s)],
+                                    schema=layout.data_arrow_schema(s))
+        data_ref = last.data if last else layout.FileRef()
+        old_data = self.root / layout.data_path(data_ref)
+        if last and old_data.stat().st_size + (staged.path / "frames.parquet").stat().st_size > \
+                info["data_files_size_in_mb"] * _MB:
+            data_ref = data_ref.next(info["chunks_size"])
+        elif last:
+            rows = pa.concat_tables([pq.read_table(old_data, schema=rows.schema), rows])
+        pq.write_table(rows, tx.path(layout.data_path(data_ref)))
+
+        # videos: copy the staged packets after the current file's
+        spans = {}
+        for cam in s.cameras:
+            key = layout.video_key(cam)
+            segment = staged.video_file(key)
+            ref, offset = (last.videos[key].ref, round(last.videos[key].to_timestamp * s.fps)) if last else \
+                (layout.FileRef(), 0)
+            parts = [(segment, 0, length)]
+            if offset:
+                current = self.root / layout.video_path(key, ref)
+                size = current.stat().st_size + segment.stat().st_size
+                too_big = size > info["video_files_size_in_mb"] * _MB
+                too_long = (offset + length) / s.fps > info["mgdata"]["video_file_seconds"]
+                if too_big or too_long:
+                    ref, offset = ref.next(info["chunks_size"]), 0
+                else:
+                    parts.insert(0, (current, 0, offset))
+            remux(parts, tx.path(layout.video_path(key, ref)), s.fps)
+            spans[key] = VideoSpan(ref, offset / s.fps, (offset + length) / s.fps)
+
+        # per-episode and dataset stats
+        ep_stats: dict[str, FeatureStats] = {
+            key: image_stats(staged.histograms[key], length) if image else numeric_stats(values[key])
+            for key, image in stats_features(s)}
+        all_values = {k: np.concatenate([*self._values[k], values[k]]) for k in self._values}
+        hist_sum = {k: self._hist_sum[k] + staged.histograms[k] for k in self._hist_sum}
+        total = start + length
+        ds_stats = {key: image_stats(hist_sum[key], total) if image else numeric_stats(all_values[key])
+                    for key, image in stats_features(s)}
+
+        # episodes table (rolls over like data files)
+        meta_ref, ep_table = (last.meta_file, self._episodes_table) if last else (layout.FileRef(), None)
+        if ep_table is not None and ep_table.nbytes > info["data_files_size_in_mb"] * _MB:
+            meta_ref, ep_table = meta_ref.next(info["chunks_size"]), None
+        record = EpisodeRecord(ep, length, staged.task, data_ref, start, spans, meta_ref, staged.meta,
+                               ep_stats, dict(staged.histograms))
+        row = record_to_table(record, s)
+        ep_table = row if ep_table is None else pa.concat_tables([ep_table, row])
+        pq.write_table(ep_table, tx.path(layout.episodes_path(meta_ref)))
+
+        if tasks != self._tasks:
+            write_tasks(tasks, tx.path(layout.TASKS_PATH))
+        tx.path(layout.STATS_PATH).write_text(dump_json(stats_to_json(ds_stats)))
+        new_info = dict(info, total_episodes=ep + 1, total_frames=total, total_tasks=len(tasks),
+                        splits={"train": f"0:{ep + 1}"})
+        tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
+        return record, tasks, values, staged.histograms, ep_table, new_info
+
+    def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
+               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict) -> None:
+        self._records.append(record)
+        self._tasks = tasks
+        for key, v in values.items():
+            self._values[key].append(v)
+        for key, h in hists.items():
+            self._hist_sum[key] += h
+        self._episodes_table = ep_table
+        self._info = info
+
+    # --- closing -----------------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Drop an unfinished episode, write pending info (attempts), release the dataset."""
+        if self._lock is None:
+            return
+        self.discard_episode()
+        on_disk = read_info(self.root / layout.INFO_PATH)
+        if on_disk != self._info:
+            tx = Transaction(self.root)
+            tx.path(layout.INFO_PATH).write_text(dump_json(self._info))
+            tx.commit()
+        self._lock.release()
+        self._lock = None
+        wdir = work_dir(self.root)
+        (wdir / "lock").unlink(missing_ok=True)
+        shutil.rmtree(wdir / "staging", ignore_errors=True)
+        if wdir.exists() and not any(wdir.iterdir()):
+            wdir.rmdir()
+
+    def __enter__(self) -> DatasetWriter:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+def _episode_file_refs(root: Path) -> list[tuple[int, int]]:
+    refs = []
+    for path in sorted((root / layout.EPISODES_DIR).glob("chunk-*/file-*.parquet")):
+        refs.append((int(path.parent.name[6:]), int(path.stem[5:])))
+    return refs
