@@ -15,7 +15,6 @@ Example::
 from __future__ import annotations
 
 import difflib
-import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
@@ -23,10 +22,13 @@ from functools import cache
 import numpy as np
 
 from mgdata.errors import AssetError
-from mgdata.sim.assets import jar
+from mgdata.sim.assets import boxes, jar, vessels
+from mgdata.sim.assets.bottle import build_bottle
+from mgdata.sim.assets.cabinet import build_cabinet
+from mgdata.sim.assets.container import build_container, build_lid
 from mgdata.sim.assets.food import food_builder
 from mgdata.sim.assets.granular import build_dust, build_liquid
-from mgdata.sim.assets.model import ObjectModel
+from mgdata.sim.assets.model import ObjectModel, model_seed
 
 Builder = Callable[[str, int, np.random.Generator], ObjectModel]
 
@@ -42,7 +44,22 @@ class Kind:
 
 
 def _kinds() -> tuple[Kind, ...]:
-    kinds = [Kind("jar", "hinged", 16, jar.build_hinged_jar)]
+    kinds = [
+        Kind("jar", "hinged", 16, jar.build_hinged_jar),
+        Kind("cup", "tumbler", 16, vessels.build_cup),
+        Kind("mug", "handled", 16, vessels.build_mug),
+        Kind("teacup", "flared", 12, vessels.build_teacup),
+        Kind("bowl", "round", 16, vessels.build_bowl),
+        Kind("plate", "flat", 12, vessels.build_plate),
+        Kind("box", "carton", 16, boxes.build_box),
+        Kind("bottle", "round", 16, build_bottle),
+        Kind("container", "tub", 12, build_container),
+        Kind("lid", "tub", 12, build_lid),
+        Kind("tray", "flat", 8, boxes.build_tray),
+        Kind("sponge", "block", 8, boxes.build_sponge),
+        Kind("board", "chopping", 8, boxes.build_board),
+        Kind("cabinet", "drawer", 8, build_cabinet),
+    ]
     kinds += [Kind("food", k, 8, food_builder(k)) for k in ("cherry", "cookie", "candy", "olive", "nugget")]
     kinds += [Kind("liquid", "water", 8, build_liquid), Kind("dust", "layer", 8, build_dust)]
     return tuple(kinds)
@@ -56,11 +73,6 @@ def _index() -> dict[str, Kind]:
 
 
 _BY_NAME: dict[str, Kind] = _index()
-
-
-def model_seed(name: str) -> int:
-    """The seed of a model: the first 8 bytes of SHA-256 of its name (stable across runs and machines)."""
-    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
 
 
 def categories() -> list[str]:

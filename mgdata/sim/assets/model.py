@@ -14,6 +14,7 @@ is named ``jar``.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
@@ -166,6 +167,11 @@ class Particles:
     radius: float
     mass: float = 0.0
     layout: np.ndarray | None = None
+
+
+def model_seed(name: str) -> int:
+    """The seed of a model: the first 8 bytes of SHA-256 of its name (stable across runs and machines)."""
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
 
 
 def with_masses(geoms: tuple[Geom, ...], total: float) -> tuple[Geom, ...]:

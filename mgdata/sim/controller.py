@@ -1,0 +1,70 @@
+"""JointController: the 8-D joint-native action interface at 20 Hz over 500 Hz physics.
+
+``action`` = 7 commanded arm joint targets (rad) + gripper command (1.0 close, 0.0 open; values in between
+interpolate the actuator control). The arm's position servos (Menagerie gains) track the targets; one
+:meth:`step` holds the action for one control period (``scene.physics.substeps`` physics steps) and then runs
+the scene's per-control-step bookkeeping (dust wiping). ``state`` = 7 measured arm joints + gripper opening
+(m, the sum of the two finger joints), float32.
+
+Example::
+
+    ctl = JointController(scene)
+    ctl.apply(np.array([*HOME_Q, 1.0]))   # close the gripper at home
+    ctl.step()
+    ctl.state()
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from mgdata.errors import MgdataError
+from mgdata.sim import robot
+from mgdata.sim.scene import Scene
+
+
+class JointController:
+    """Maps 8-D actions to the Panda's actuators and advances the scene one control period per step."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        model = scene.model
+        self._act = robot.arm_actuator_ids(model)
+        self._lo = model.actuator_ctrlrange[self._act[:7], 0].copy()
+        self._hi = model.actuator_ctrlrange[self._act[:7], 1].copy()
+        self._substeps = scene.physics.substeps
+        self.last_action = np.zeros(8, dtype=np.float32)
+
+    def apply(self, action: np.ndarray) -> None:
+        """Set the actuator controls for ``action`` (8,): arm targets are clipped to the joint ranges.
+
+        Raises:
+            MgdataError: the action is not 8 finite numbers.
+        """
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (8,) or not np.all(np.isfinite(a)):
+            raise MgdataError(f"action must be 8 finite numbers (7 joint targets + gripper), got {action!r}")
+        ctrl = self.scene.data.ctrl
+        ctrl[self._act[:7]] = np.clip(a[:7], self._lo, self._hi)
+        ctrl[self._act[7]] = robot.gripper_ctrl(a[7])
+        self.last_action = a.astype(np.float32)
+
+    def step(self) -> None:
+        """Advance one control period with the current controls.
+
+        Ends with ``mj_forward`` so positions and contacts describe the new state (as after
+        ``Scene.restore``); that call does not change the trajectory.
+        """
+        m, d = self.scene.model, self.scene.data
+        for _ in range(self._substeps):
+            mujoco.mj_step(m, d)
+        self.scene.after_control_step()
+        mujoco.mj_forward(m, d)
+
+    def state(self) -> np.ndarray:
+        """Measured arm joints (7) + gripper opening (m), float32 (8,)."""
+        out = np.empty(8, dtype=np.float32)
+        out[:7] = self.scene.arm_q()
+        out[7] = self.scene.gripper_opening()
+        return out

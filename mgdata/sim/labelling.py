@@ -1,0 +1,64 @@
+"""The labelling function L: a scene state -> the truth of every proposition of a safety spec.
+
+``Labeller(scene, spec)`` compiles each proposition once (subjects resolved, ids precomputed); ``labels()``
+then evaluates them on the scene's current state in ``spec.proposition_names`` order. A proposition over
+several subjects combines them with its quantifier (``all`` or ``any``); a subject pattern that matches
+nothing is an error at construction, never a silent True or False.
+
+Example::
+
+    lab = Labeller(scene, task.safety)
+    bits = lab.labels()          # bool (n_props,)
+    dict(zip(lab.names, bits))
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mgdata.errors import SpecError
+from mgdata.sim.predicates import Check, Contacts, compile_check, resolve
+from mgdata.sim.scene import Scene
+from mgdata.spec import SafetySpec
+
+QUANTIFIERS = ("all", "any")
+
+
+class Labeller:
+    """Evaluates a spec's propositions on a scene.
+
+    Attributes:
+        names: proposition names, the order of :meth:`labels`.
+    """
+
+    def __init__(self, scene: Scene, spec: SafetySpec) -> None:
+        self.scene = scene
+        self.spec = spec
+        self.names: tuple[str, ...] = spec.proposition_names
+        if len(set(self.names)) != len(self.names):
+            raise SpecError(f"spec {spec.name!r} declares a proposition name twice: {', '.join(self.names)}")
+        self._checks: list[tuple[bool, tuple[Check, ...]]] = []
+        for prop in spec.propositions:
+            where = f"spec {spec.name!r}, proposition {prop.name!r}"
+            if prop.quantifier not in QUANTIFIERS:
+                raise SpecError(f"{where}: quantifier {prop.quantifier!r}; expected 'all' or 'any'")
+            if not prop.subjects:
+                raise SpecError(f"{where}: no subjects (an empty subject set has no truth value)")
+            subjects = [n for pattern in prop.subjects for n in resolve(scene, pattern, f"{where}: subject")]
+            checks = tuple(compile_check(scene, prop.evaluator, s, prop.params, where) for s in subjects)
+            self._checks.append((prop.quantifier == "all", checks))
+
+    def labels(self) -> np.ndarray:
+        """Truth of every proposition on the scene's current state, bool (n_props,)."""
+        contacts = Contacts(self.scene)
+        out = np.empty(len(self._checks), dtype=bool)
+        for i, (universal, checks) in enumerate(self._checks):
+            if universal:
+                out[i] = all(check(contacts) for check in checks)
+            else:
+                out[i] = any(check(contacts) for check in checks)
+        return out
+
+    def as_dict(self) -> dict[str, bool]:
+        """``labels()`` keyed by proposition name (for logs and tests)."""
+        return dict(zip(self.names, self.labels().tolist(), strict=True))

@@ -1,0 +1,251 @@
+"""The predicate registry: evaluators of atomic propositions over a scene's MuJoCo state.
+
+Each evaluator is compiled once per (subject, params) into a closure over precomputed ids, then called every
+control step with a :class:`Contacts` view of the current contacts. Names and parameters (defaults in
+brackets) follow ``mgdata.spec.EVALUATORS``:
+
+* ``dropped(floor_margin=0.05)``: the lowest corner of the object's bounding box is below floor + margin;
+* ``upright(max_tilt_deg)``: the object's +Z axis is within ``max_tilt_deg`` of world +Z;
+* ``on(support)``: the object touches ``support`` with a contact whose normal points up (≤ 45° from +Z) from
+  the support into the object, i.e. it rests on it;
+* ``open(min_fraction=0.5)`` / ``closed(max_fraction=0.05)``: articulation fraction ≥ min / ≤ max;
+* ``touching(other)``: any contact between the object and ``other``;
+* ``spilled(container, max_fraction=0.15)``: more than ``max_fraction`` of a liquid's spheres are outside
+  the ``container``'s cavity (5 mm sideways margin, 3 cm headroom above the rim);
+* ``in_region(region="goal")``: the object's world bounding box intersects the goal sphere;
+* ``held()``: both fingers touch the object;
+* ``covered(min_fraction=0.0)``: more than ``min_fraction`` of a dust patch's specks remain.
+
+``support``/``other`` name an instance, a prefix glob (``obstacle_*``), ``table``, ``floor`` or ``robot``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from mgdata.errors import SpecError
+from mgdata.sim import robot
+from mgdata.sim.scene import OWNER_FLOOR, OWNER_ROBOT, OWNER_TABLE, Scene
+
+ON_NORMAL_MIN_Z = np.cos(np.deg2rad(45.0))
+SPILL_MARGIN = 0.005
+SPILL_HEADROOM = 0.03
+REQUIRED = object()
+"""Marks a parameter without a default."""
+
+
+class Contacts:
+    """The current contacts as owner arrays (computed once per labelling step)."""
+
+    def __init__(self, scene: Scene) -> None:
+        d = scene.data
+        n = d.ncon
+        geom = d.contact.geom[:n] if n else np.zeros((0, 2), dtype=np.int32)
+        self.geom1, self.geom2 = geom[:, 0], geom[:, 1]
+        self.owner1 = scene.geom_owner[self.geom1]
+        self.owner2 = scene.geom_owner[self.geom2]
+        self._frame = d.contact.frame[:n] if n else np.zeros((0, 9))
+
+    def between(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Mask of contacts between owner sets ``a`` and ``b`` (boolean lookup arrays over owners)."""
+        return (a[self.owner1] & b[self.owner2]) | (b[self.owner1] & a[self.owner2])
+
+    def resting(self, obj: np.ndarray, support: np.ndarray) -> bool:
+        """Is there a contact where ``support`` pushes ``obj`` upward?"""
+        nz = self._frame[:, 2]
+        up = (support[self.owner1] & obj[self.owner2] & (nz >= ON_NORMAL_MIN_Z)) | (
+            obj[self.owner1] & support[self.owner2] & (-nz >= ON_NORMAL_MIN_Z))
+        return bool(up.any())
+
+    def geoms_touch(self, a: np.ndarray, obj: np.ndarray) -> bool:
+        """Does any geom in the boolean geom mask ``a`` touch an owner in ``obj``?"""
+        return bool(((a[self.geom1] & obj[self.owner2]) | (a[self.geom2] & obj[self.owner1])).any())
+
+
+Check = Callable[[Contacts], bool]
+Factory = Callable[[Scene, str, Mapping[str, Any]], Check]
+
+
+@dataclass(frozen=True)
+class Evaluator:
+    """A named predicate: its parameters (name -> default, or ``REQUIRED``) and its compiler."""
+
+    name: str
+    params: Mapping[str, Any]
+    factory: Factory
+
+
+def resolve(scene: Scene, pattern: str, what: str) -> list[str]:
+    """Instance names matching ``pattern`` (exact, or a prefix glob ending in ``*``), in scene order.
+
+    Raises:
+        SpecError: nothing matches (an empty set is never silently true or false).
+    """
+    if pattern.endswith("*"):
+        names = [n for n in scene.object_names if n.startswith(pattern[:-1])]
+    else:
+        names = [pattern] if pattern in scene.object_names else []
+    if not names:
+        raise SpecError(f"{what} {pattern!r} matches no object in the scene; objects: "
+                        f"{', '.join(scene.object_names) or 'none'}")
+    return names
+
+
+def owner_mask(scene: Scene, pattern: str, what: str) -> np.ndarray:
+    """Boolean lookup over ``scene.owners`` (index −1, "no owner", maps to the last entry, always False)."""
+    mask = np.zeros(len(scene.owners) + 1, dtype=bool)
+    fixed = {"floor": OWNER_FLOOR, "table": OWNER_TABLE, "robot": OWNER_ROBOT}
+    if pattern in fixed:
+        mask[fixed[pattern]] = True
+    else:
+        for n in resolve(scene, pattern, what):
+            mask[scene.owners.index(n)] = True
+    return mask
+
+
+def _box(scene: Scene, name: str) -> tuple[int, np.ndarray, np.ndarray]:
+    m = scene.objects[name]
+    lo = np.array([-m.size[0] / 2, -m.size[1] / 2, 0.0])
+    hi = np.array([m.size[0] / 2, m.size[1] / 2, m.size[2]])
+    return scene.object_body(name), lo, hi
+
+
+def _world_box(scene: Scene, body: int, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World AABB of the local box [lo, hi] of ``body``."""
+    rot = scene.data.xmat[body].reshape(3, 3)
+    centre = scene.data.xpos[body] + rot @ ((lo + hi) / 2.0)
+    half = np.abs(rot) @ ((hi - lo) / 2.0)
+    return centre - half, centre + half
+
+
+def _dropped(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    limit = scene.floor_z + float(p["floor_margin"])
+    if subject in scene.liquids:
+        ids, r = scene.liquids[subject].body_ids, scene.objects[subject].particles.radius
+        return lambda c: bool((scene.data.xpos[ids, 2] - r).min() < limit)
+    body, lo, hi = _box(scene, subject)
+    return lambda c: bool(_world_box(scene, body, lo, hi)[0][2] < limit)
+
+
+def _upright(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    body, cos_max = scene.object_body(subject), float(np.cos(np.deg2rad(float(p["max_tilt_deg"]))))
+    return lambda c: bool(scene.data.xmat[body, 8] >= cos_max)
+
+
+def _on(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    obj, support = owner_mask(scene, subject, "subject"), owner_mask(scene, str(p["support"]), "support")
+    return lambda c: c.resting(obj, support)
+
+
+def _fraction(scene: Scene, subject: str) -> Callable[[], float]:
+    if scene.objects[subject].articulation is None:
+        raise SpecError(f"open/closed: object {subject!r} ({scene.objects[subject].name}) "
+                        "has no articulation")
+    art, adr = scene.objects[subject].articulation, scene.articulation_qpos_adr(subject)
+    return lambda: art.fraction(float(scene.data.qpos[adr]))
+
+
+def _open(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    f, lo = _fraction(scene, subject), float(p["min_fraction"])
+    return lambda c: f() >= lo
+
+
+def _closed(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    f, hi = _fraction(scene, subject), float(p["max_fraction"])
+    return lambda c: f() <= hi
+
+
+def _touching(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    obj, other = owner_mask(scene, subject, "subject"), owner_mask(scene, str(p["other"]), "other")
+    return lambda c: bool(c.between(obj, other).any())
+
+
+def _spilled(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    if subject not in scene.liquids:
+        raise SpecError(f"spilled: subject {subject!r} is not a liquid (liquids: {', '.join(scene.liquids)})")
+    container = str(p["container"])
+    cavity = scene.object_model(container).cavity
+    if cavity is None:
+        raise SpecError(f"spilled: container {container!r} ({scene.objects[container].name}) has no cavity")
+    ids, body, limit = scene.liquids[subject].body_ids, scene.object_body(container), float(p["max_fraction"])
+
+    def check(c: Contacts) -> bool:
+        d = scene.data
+        local = (d.xpos[ids] - d.xpos[body]) @ d.xmat[body].reshape(3, 3)
+        inside = cavity.contains(local, margin=SPILL_MARGIN, headroom=SPILL_HEADROOM)
+        return bool(1.0 - inside.mean() > limit)
+
+    return check
+
+
+def _in_region(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    region = str(p["region"])
+    site = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_SITE, region)
+    if site < 0:
+        raise SpecError(f"in_region: the scene has no region {region!r} (the task's goal is named "
+                        f"{scene.task.goal.name if scene.task.goal else 'nothing: it has no goal'})")
+    radius, body_box = float(scene.model.site_size[site, 0]), _box(scene, subject)
+
+    def check(c: Contacts) -> bool:
+        lo, hi = _world_box(scene, *body_box)
+        centre = scene.data.site_xpos[site]
+        return bool(np.linalg.norm(centre - np.clip(centre, lo, hi)) <= radius)
+
+    return check
+
+
+def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    m, obj = scene.model, owner_mask(scene, subject, "subject")
+    fingers = [np.isin(np.arange(m.ngeom), np.flatnonzero(m.geom_bodyid == m.body(b).id))
+               for b in robot.FINGER_BODIES]
+    return lambda c: c.geoms_touch(fingers[0], obj) and c.geoms_touch(fingers[1], obj)
+
+
+def _covered(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    if subject not in scene.dust.mocap_ids:
+        raise SpecError(f"covered: subject {subject!r} is not a dust patch")
+    lo = float(p["min_fraction"])
+    return lambda c: scene.dust.remaining_fraction(scene.data, subject) > lo
+
+
+REGISTRY: Mapping[str, Evaluator] = {
+    e.name: e
+    for e in (
+        Evaluator("dropped", {"floor_margin": 0.05}, _dropped),
+        Evaluator("upright", {"max_tilt_deg": REQUIRED}, _upright),
+        Evaluator("on", {"support": REQUIRED}, _on),
+        Evaluator("open", {"min_fraction": 0.5}, _open),
+        Evaluator("closed", {"max_fraction": 0.05}, _closed),
+        Evaluator("touching", {"other": REQUIRED}, _touching),
+        Evaluator("spilled", {"container": REQUIRED, "max_fraction": 0.15}, _spilled),
+        Evaluator("in_region", {"region": "goal"}, _in_region),
+        Evaluator("held", {}, _held),
+        Evaluator("covered", {"min_fraction": 0.0}, _covered),
+    )
+}
+"""Evaluator name -> :class:`Evaluator`."""
+
+
+def compile_check(scene: Scene, evaluator: str, subject: str, params: Mapping[str, Any], where: str) -> Check:
+    """One subject's check, with parameters validated and defaults filled in.
+
+    Raises:
+        SpecError: unknown evaluator or parameter, a missing required parameter, or an unresolvable name.
+    """
+    ev = REGISTRY.get(evaluator)
+    if ev is None:
+        raise SpecError(f"{where}: unknown evaluator {evaluator!r}; known: {', '.join(sorted(REGISTRY))}")
+    unknown = sorted(set(params) - set(ev.params))
+    if unknown:
+        raise SpecError(f"{where}: evaluator {evaluator!r} has no parameter(s) {', '.join(unknown)}; "
+                        f"parameters: {', '.join(ev.params) or 'none'}")
+    full = {k: params.get(k, default) for k, default in ev.params.items()}
+    missing = [k for k, v in full.items() if v is REQUIRED]
+    if missing:
+        raise SpecError(f"{where}: evaluator {evaluator!r} needs parameter(s) {', '.join(missing)}")
+    return ev.factory(scene, subject, full)
