@@ -13,6 +13,11 @@ a held-object geom:
 * pairs named in :class:`~mgdata.motion.types.AllowedContacts` are ignored;
 * pairs already within the margin at the start or goal of a query are judged exactly (penetration only), so a
   motion may leave a configuration that sits close to a surface without granting it any real contact.
+
+Each rule set becomes one (ngeom, ngeom) matrix of distance thresholds, so judging a check's contacts is one
+gather and one comparison. The copy's contact bitmasks are remapped so that MuJoCo never even generates
+world ↔ world contacts (objects resting on the table, food in a jar), while every pair with a moving geom
+collides exactly when it would in the scene.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 from mgdata.errors import SceneError
 from mgdata.motion.config import CheckConfig
 from mgdata.motion.types import AllowedContacts, Attachment
-from mgdata.sim.robot import HAND_BODY, TCP_SITE, arm_qpos_adr, robot_body_ids, robot_geom_ids
+from mgdata.sim.robot import HAND_BODY, TCP_SITE, arm_qpos_adr, robot_geom_ids
 
 WORLD, ROBOT, GRIPPER, HELD = 0, 1, 2, 3
 
@@ -57,35 +62,38 @@ class CollisionChecker:
     def __init__(self, model: mujoco.MjModel, config: CheckConfig) -> None:
         self.config = config
         self.model = copy.copy(model)
+        # The midphase tests multi-geom bodies with bounding volumes fixed at compile time, which ignore the
+        # margins set here at run time; without it every geom pair is bounded with its current margin.
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
         self.data = mujoco.MjData(self.model)
         self._arm_adr = arm_qpos_adr(model)
         self._tcp = model.site(TCP_SITE).id
         self._base_margin = model.geom_margin.copy()
-        n = model.ngeom
-        self._robot_geoms = robot_geom_ids(model)
-        self._kind0 = np.full(n, WORLD, dtype=np.int8)
-        self._kind0[self._robot_geoms] = ROBOT
-        hand_bodies = self._subtree(model.body(HAND_BODY).id)
-        self._kind0[self._robot_geoms[np.isin(model.geom_bodyid[self._robot_geoms], hand_bodies)]] = GRIPPER
-        self._robot_bodies = robot_body_ids(model)
+        self._base_contype = model.geom_contype.copy()
+        self._base_conaffinity = model.geom_conaffinity.copy()
+        robot_geoms = robot_geom_ids(model)
+        self._kind0 = np.full(model.ngeom, WORLD, dtype=np.int8)
+        self._kind0[robot_geoms] = ROBOT
+        in_hand = np.isin(model.geom_bodyid[robot_geoms], self._subtree(model.body(HAND_BODY).id))
+        self._kind0[robot_geoms[in_hand]] = GRIPPER
         self._kind = self._kind0.copy()
-        self._allowed = np.zeros((n, n), dtype=bool)
-        self._exact = np.zeros((n, n), dtype=bool)
+        self._allowed = np.zeros((model.ngeom, model.ngeom), dtype=bool)
+        self._exact = np.zeros_like(self._allowed)
+        self._threshold = np.zeros((model.ngeom, model.ngeom))
         self._margin = 0.0
         self._attached: Attachment | None = None
         self._held_adr = -1
         self.n_checks = 0
+        self.configure(AllowedContacts(), None, 0.0)
 
     # ----------------------------------------------------------------------------------------- set-up
     def _subtree(self, body: int) -> np.ndarray:
-        """Ids of ``body`` and all its descendants."""
-        m = self.model
-        ids = [body]
-        for b in range(body + 1, m.nbody):
-            parent = m.body_parentid[b]
-            if parent in ids:
-                ids.append(b)
-        return np.array(ids, dtype=np.int32)
+        """Ids of ``body`` and all its descendants (MuJoCo numbers children after their parents)."""
+        inside = np.zeros(self.model.nbody, dtype=bool)
+        inside[body] = True
+        for b in range(body + 1, self.model.nbody):
+            inside[b] = inside[self.model.body_parentid[b]]
+        return np.flatnonzero(inside)
 
     def _body_id(self, name: str, what: str) -> int:
         bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
@@ -127,25 +135,55 @@ class CollisionChecker:
                     or self.model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE):
                 raise SceneError(f"Attachment body {attached.body!r} must be a child of the world with a "
                                  "free joint (a loose object)")
-            if body in self._robot_bodies:
-                raise SceneError(f"Attachment body {attached.body!r} is part of the robot")
             self._held_adr = int(self.model.jnt_qposadr[jnt])
             self._kind[self._subtree_geoms(attached.body, "Attachment")] = HELD
+        self._remap_masks()
         self.set_margin(margin)
+
+    def _remap_masks(self) -> None:
+        """Contact bitmasks under which world geoms never collide with each other.
+
+        With original masks t, a below 2**16: world geoms get contype 0 and conaffinity ``a | t << 16``,
+        moving geoms contype ``t | a << 16`` and conaffinity ``a``. A world–moving pair then collides iff
+        ``t_m & a_w or a_m & t_w`` (as before), moving–moving pairs as before, world–world pairs never.
+        """
+        t, a = self._base_contype.astype(np.int64), self._base_conaffinity.astype(np.int64)
+        if t.max(initial=0) >= 1 << 16 or a.max(initial=0) >= 1 << 16:
+            return  # exotic masks: keep them, world-world contacts are then generated and ignored
+        moving = self._kind != WORLD
+        self.model.geom_contype[:] = np.where(moving, t | (a << 16), 0)
+        self.model.geom_conaffinity[:] = np.where(moving, a, a | (t << 16))
 
     def set_margin(self, margin: float) -> None:
         """Change the world margin (m) of moving geoms, keeping the other rules."""
-        moving = np.flatnonzero(self._kind != WORLD)
+        moving = self._kind != WORLD
         self._margin = float(margin)
         self.model.geom_margin[:] = self._base_margin
         self.model.geom_margin[moving] = np.maximum(self._base_margin[moving], self._margin)
+        self._update_thresholds()
+
+    def _update_thresholds(self) -> None:
+        """A contact between geoms i and j is invalid when its distance is below ``threshold[i, j]``."""
+        world = self._kind == WORLD
+        gripper = self._kind == GRIPPER
+        any_world = world[:, None] | world[None, :]
+        thr = np.where(any_world, self._margin, self.config.self_margin)
+        thr = np.where(self._exact, np.minimum(thr, 0.0), thr)
+        ignore = (world[:, None] & world[None, :]) | (gripper[:, None] & gripper[None, :]) | self._allowed
+        self._threshold = np.where(ignore, -np.inf, thr)
 
     def relax_pairs_at(self, q: np.ndarray) -> None:
         """Judge exactly (penetration only) the pairs within the margin, but not touching, at ``q``."""
         self._set(q)
-        for g1, g2, dist in self._contacts():
-            if dist >= 0.0 and self._judge(g1, g2, dist):
-                self._exact[g1, g2] = self._exact[g2, g1] = True
+        n = self.data.ncon
+        if n == 0:
+            return
+        g1, g2 = self.data.contact.geom[:n, 0], self.data.contact.geom[:n, 1]
+        dist = self.data.contact.dist[:n]
+        near = (dist >= 0.0) & (dist < self._threshold[g1, g2])
+        self._exact[g1[near], g2[near]] = True
+        self._exact[g2[near], g1[near]] = True
+        self._update_thresholds()
 
     # ----------------------------------------------------------------------------------------- queries
     def _set(self, q: np.ndarray) -> None:
@@ -164,53 +202,25 @@ class CollisionChecker:
         mujoco.mj_collision(m, d)
         self.n_checks += 1
 
-    def _contacts(self) -> list[tuple[int, int, float]]:
-        n = self.data.ncon
-        if n == 0:
-            return []
-        geoms = self.data.contact.geom[:n]
-        dist = self.data.contact.dist[:n]
-        return [(int(a), int(b), float(x)) for (a, b), x in zip(geoms, dist, strict=True)]
-
-    def _judge(self, g1: int, g2: int, dist: float) -> bool:
-        """True when the contact makes the configuration invalid (ignoring the exact-pair override)."""
-        k1, k2 = self._kind[g1], self._kind[g2]
-        if (k1 == WORLD and k2 == WORLD) or self._allowed[g1, g2]:
-            return False
-        if k1 == WORLD or k2 == WORLD:
-            return dist < self._margin
-        if k1 == GRIPPER and k2 == GRIPPER:
-            return False
-        return dist < self.config.self_margin
-
-    def _bad_mask(self) -> np.ndarray:
+    def _bad(self) -> np.ndarray:
+        """Indices of the current contacts that make the configuration invalid."""
         n = self.data.ncon
         geoms = self.data.contact.geom[:n]
-        g1, g2 = geoms[:, 0], geoms[:, 1]
-        dist = self.data.contact.dist[:n]
-        k1, k2 = self._kind[g1], self._kind[g2]
-        world = (k1 == WORLD) | (k2 == WORLD)
-        threshold = np.where(world, self._margin, self.config.self_margin)
-        threshold = np.where(self._exact[g1, g2], 0.0, threshold)
-        bad = (dist < threshold) & ~self._allowed[g1, g2]
-        bad &= ~((k1 == WORLD) & (k2 == WORLD))
-        bad &= ~((k1 == GRIPPER) & (k2 == GRIPPER))
-        return bad
+        return np.flatnonzero(self.data.contact.dist[:n] < self._threshold[geoms[:, 0], geoms[:, 1]])
 
     def valid(self, q: np.ndarray) -> bool:
         """Whether arm configuration ``q`` (7,) is collision-free under the configured rules."""
         self._set(q)
-        return self.data.ncon == 0 or not self._bad_mask().any()
+        return self.data.ncon == 0 or len(self._bad()) == 0
 
     def collisions(self, q: np.ndarray) -> list[Contact]:
         """The invalid contacts at ``q``, deepest first (empty when ``q`` is valid)."""
         self._set(q)
         if self.data.ncon == 0:
             return []
-        bad = np.flatnonzero(self._bad_mask())
         m, con = self.model, self.data.contact
         found = []
-        for i in bad:
+        for i in self._bad():
             g1, g2 = con.geom[i]
             if self._kind[g1] == WORLD:  # name the moving part first: "hand <-> wall"
                 g1, g2 = g2, g1

@@ -1,0 +1,120 @@
+"""The collision checker's rules: world margin, self-collision, gripper, allowed pairs, masks, relaxation."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from motion_scenes import down_pose, home_data
+
+from mgdata.errors import SceneError
+from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, CheckConfig, MotionPlanner
+from mgdata.motion.collision import CollisionChecker
+from mgdata.sim.robot import FINGER_BODIES, HAND_BODY, HOME_Q, TCP_SITE, load_panda_spec, robot_body_ids
+
+
+def probe_scene() -> mujoco.MjModel:
+    """Panda + three boxes between the open fingers at HOME: colliding, non-colliding (0/0), other mask (2/2),
+    plus a table with a loose cube resting on it."""
+    spec = load_panda_spec()
+    model = spec.compile()
+    data = home_data(model)
+    tcp = data.site_xpos[model.site(TCP_SITE).id].copy()
+    for name, contype, conaffinity in (("solid", 1, 1), ("ghost", 0, 0), ("masked", 2, 2)):
+        body = spec.worldbody.add_body(name=name, pos=tcp.tolist())
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.06, 0.06, 0.03], contype=contype,
+                      conaffinity=conaffinity)
+    table = spec.worldbody.add_body(name="table", pos=[0.6, 0.0, -0.02])
+    table.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.3, 0.02])
+    cube = spec.worldbody.add_body(name="cube", pos=[0.6, 0.2, 0.02])
+    cube.add_freejoint()
+    cube.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 0.02, 0.02])
+    return spec.compile()
+
+
+@pytest.fixture(scope="module")
+def probe() -> tuple[mujoco.MjModel, CollisionChecker]:
+    model = probe_scene()
+    checker = CollisionChecker(model, CheckConfig())
+    checker.sync(home_data(model))
+    return model, checker
+
+
+def test_only_pairs_that_collide_in_the_scene_are_reported(probe: tuple) -> None:
+    _, checker = probe
+    checker.configure(NO_CONTACTS, None, 0.0)
+    found = checker.collisions(HOME_Q)
+    assert found and {c.body2 for c in found} == {"solid"}  # ghost (0/0) and masked (2/2) never touch
+    assert {c.body1 for c in found} <= {HAND_BODY, *FINGER_BODIES}
+    checker.configure(AllowedContacts(((HAND_BODY, "solid"),)), None, 0.0)
+    assert checker.valid(HOME_Q)  # "hand" covers the palm and both fingers
+
+
+def test_world_contacts_are_not_even_generated(probe: tuple) -> None:
+    model, checker = probe
+    data = home_data(model)  # the cube rests on the table: the scene itself has that contact
+    mujoco.mj_forward(model, data)
+    cube = model.body("cube").id
+    assert any(cube in (model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]) for c in data.contact)
+    checker.configure(AllowedContacts(((HAND_BODY, "solid"),)), None, 0.0)
+    checker.valid(HOME_Q)
+    bodies = {model.geom_bodyid[g] for g in checker.data.contact.geom.ravel()}
+    assert cube not in bodies and model.body("table").id not in bodies
+
+
+def test_self_collision_is_invalid_but_closed_fingers_are_fine() -> None:
+    model = load_panda_spec().compile()
+    checker = CollisionChecker(model, CheckConfig())
+    data = home_data(model)
+    data.qpos[7:9] = 0.0  # fingers closed: they touch each other
+    checker.sync(data)
+    checker.configure(NO_CONTACTS, None, 0.0)
+    assert checker.valid(HOME_Q)
+    robot = set(robot_body_ids(model).tolist())
+    rng = np.random.default_rng(0)
+    lo, hi = model.jnt_range[:7].T
+    oracle = mujoco.MjData(model)
+    for _ in range(400):
+        q = rng.uniform(lo, hi)
+        oracle.qpos[:7] = q
+        mujoco.mj_kinematics(model, oracle)
+        mujoco.mj_collision(model, oracle)
+        hits = [(model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]) for c in oracle.contact
+                if c.dist < 0]
+        self_hit = any(a in robot and b in robot and not {model.body(a).name, model.body(b).name} <= {
+            HAND_BODY, *FINGER_BODIES} for a, b in hits)
+        assert checker.valid(q) == (not self_hit)
+
+
+def test_margin_inflates_and_relaxation_keeps_exact_pairs(planner: MotionPlanner) -> None:
+    checker = planner.checker
+    q = planner.ik(down_pose(0.6, 0.35, 0.015), HOME_Q, np.random.default_rng(0))
+    checker.configure(NO_CONTACTS, None, 0.0)
+    gap = min(d for d in _table_distances(checker, q))
+    assert 0.0 < gap < 0.01  # fingertips just above the table
+    assert checker.valid(q)
+    checker.set_margin(0.01)
+    assert not checker.valid(q) and "table" in checker.explain(q)
+    checker.relax_pairs_at(q)
+    assert checker.valid(q)  # the pair near at the query's start is judged exactly ...
+    q_deeper = planner.ik(down_pose(0.6, 0.35, 0.0), HOME_Q, np.random.default_rng(0))
+    assert not checker.valid(q_deeper)  # ... so real penetration is still caught
+
+
+def _table_distances(checker: CollisionChecker, q: np.ndarray) -> list[float]:
+    checker.set_margin(0.02)
+    checker.valid(q)
+    m, con = checker.model, checker.data.contact
+    table = m.body("table").id
+    out = [float(c.dist) for c in con if table in (m.geom_bodyid[c.geom[0]], m.geom_bodyid[c.geom[1]])]
+    checker.set_margin(0.0)
+    return out
+
+
+def test_bad_names_are_scene_errors(planner: MotionPlanner) -> None:
+    with pytest.raises(SceneError, match=r"AllowedContacts names body 'jarr'.*'box'"):
+        planner.checker.configure(AllowedContacts((("hand", "jarr"),)), None, 0.0)
+    with pytest.raises(SceneError, match="free joint"):
+        planner.checker.configure(NO_CONTACTS, Attachment("wall"), 0.0)
+    with pytest.raises(SceneError, match="'link7' must be a child of the world with a free joint"):
+        planner.checker.configure(NO_CONTACTS, Attachment("link7"), 0.0)
