@@ -43,7 +43,9 @@ def _root(
 
 # --- command registry: one line per command module -------------------------------------------------------
 # (each module exposes ``register(app)``)
-COMMAND_MODULES: tuple[str, ...] = ()
+COMMAND_MODULES: tuple[str, ...] = (
+    "mgdata.grasps.commands",
+)
 
 
 def _register_all() -> None:
