@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import json
 import os
 import shutil
@@ -43,6 +44,15 @@ def fsync_file(path: Path) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+def sha256_file(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes (recorded per dataset file in ``info.json`` to detect corruption)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def _fsync_dir(path: Path) -> None:
@@ -85,8 +95,18 @@ class Transaction:
             self._files[rel] = self._dir / f"{len(self._files):04d}.{Path(rel).name}"
         return self._files[rel]
 
+    @property
+    def files(self) -> dict[str, Path]:
+        """Relative path → where its new version is being written."""
+        return dict(self._files)
+
     def commit(self) -> None:
         """Make every written file durable, record the manifest (commit point), then install the files."""
+        self.prepare()
+        _install(self.root)
+
+    def prepare(self) -> None:
+        """Everything up to and including the commit point; :func:`recover` or :meth:`commit` installs."""
         for tmp in self._files.values():
             if not tmp.exists():
                 raise DatasetError(f"internal: {tmp} was reserved but never written")
@@ -97,7 +117,6 @@ class Transaction:
         fsync_file(manifest)
         os.replace(manifest, self._dir / MANIFEST)
         _fsync_dir(self._dir)
-        _install(self.root)
 
     def abort(self) -> None:
         shutil.rmtree(self._dir, ignore_errors=True)

@@ -70,7 +70,7 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
         "video_path": layout.VIDEO_PATH if schema.cameras else None,
         "features": features,
         "mgdata": {"format": MGDATA_FORMAT, "spec": spec_to_dict(spec) if spec else None,
-                   "video_file_seconds": video_file_seconds, "attempts": None},
+                   "video_file_seconds": video_file_seconds, "attempts": None, "sha256": {}},
     }
 
 

@@ -28,7 +28,7 @@ import pyarrow.parquet as pq
 
 from mgdata.errors import DatasetError
 from mgdata.record import layout
-from mgdata.record.commit import Transaction, WriterLock, recover, work_dir
+from mgdata.record.commit import Transaction, WriterLock, recover, sha256_file, work_dir
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, Frame
 from mgdata.record.episodes import (
     EpisodeRecord,
@@ -298,8 +298,11 @@ class DatasetWriter:
         if tasks != self._tasks:
             write_tasks(tasks, tx.path(layout.TASKS_PATH))
         tx.path(layout.STATS_PATH).write_text(dump_json(stats_to_json(ds_stats)))
+        checksums = dict(info["mgdata"]["sha256"])
+        checksums.update({rel: sha256_file(tmp) for rel, tmp in tx.files.items()})
         new_info = dict(info, total_episodes=ep + 1, total_frames=total, total_tasks=len(tasks),
                         splits={"train": f"0:{ep + 1}"})
+        new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
         return record, tasks, values, staged.histograms, ep_table, new_info
 

@@ -1,0 +1,74 @@
+"""CLI commands on datasets: ``mgdata validate``, ``mgdata info``, ``mgdata export``."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mgdata.record.summary import format_summary, summarize
+from mgdata.record.validate import validate_dataset
+from mgdata.record.views import FORMATS, export_dataset
+
+Dataset = Annotated[Path, typer.Argument(help="Dataset folder (LeRobot v3.0 written by mgdata).")]
+
+
+def register(app: typer.Typer) -> None:
+    """Add the dataset commands to the ``mgdata`` app."""
+
+    @app.command("validate")
+    def validate(
+        dataset: Dataset,
+        decode_all: Annotated[bool, typer.Option("--decode-all", help="Decode every video frame.")] = False,
+    ) -> None:
+        """Check structure, counts, timestamps, stats, checksums and the safety record of a dataset.
+
+        Prints one line per problem and exits 1 if there is any.
+        Example: mgdata validate datasets/jar
+        """
+        report = validate_dataset(dataset, decode_all=decode_all)
+        for note in report.notes:
+            typer.echo(f"note: {note}")
+        for problem in report.problems:
+            typer.echo(f"problem: {problem}")
+        if report.problems:
+            typer.echo(f"{dataset}: {len(report.problems)} problem(s)", err=True)
+            raise typer.Exit(1)
+        typer.echo(f"{dataset}: ok ({report.episodes} episodes, {report.frames} frames)")
+
+    @app.command("info")
+    def info(
+        dataset: Dataset,
+        as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    ) -> None:
+        """Summarise a dataset: episodes, frames, families, conditions, kept vs negatives, yield, size.
+
+        Example: mgdata info datasets/jar
+        """
+        summary = summarize(dataset)
+        if as_json:
+            data = asdict(summary) | {"root": str(summary.root), "yield": summary.yield_}
+            typer.echo(json.dumps(data, indent=2))
+        else:
+            for line in format_summary(summary):
+                typer.echo(line)
+
+    @app.command("export")
+    def export(
+        dataset: Dataset,
+        out: Annotated[Path, typer.Argument(help="Output folder (must not exist).")],
+        fmt: Annotated[str, typer.Option("--format", help=f"One of: {', '.join(FORMATS)}.")],
+        overview: Annotated[str | None, typer.Option(help="Overview camera (pi0, smolvla).")] = None,
+        wrist: Annotated[str | None, typer.Option(help="Wrist camera (pi0, smolvla; default wrist).")] = None,
+        cameras: Annotated[str | None, typer.Option(help="Comma-separated cameras (v2.1, groot).")] = None,
+    ) -> None:
+        """Write a loader view of a dataset (camera subset and keys per model convention), no re-encoding.
+
+        Example: mgdata export datasets/jar datasets/jar-smolvla --format smolvla --overview front
+        """
+        cams = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
+        path = export_dataset(dataset, out, fmt, overview=overview, wrist=wrist, cameras=cams)
+        typer.echo(f"wrote {path} ({fmt})")

@@ -1,0 +1,93 @@
+"""``mgdata info``: what a dataset holds, read from its metadata only (no video decoding)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+from mgdata.record import layout
+from mgdata.record.reader import DatasetReader
+
+
+@dataclass(frozen=True)
+class DatasetSummary:
+    """Counts and sizes of a dataset.
+
+    Attributes:
+        by_family, by_condition: episodes per family / OOD condition (sorted by name).
+        kept, negatives: episodes the gate accepted / labelled negatives kept on request.
+        attempts: attempts recorded by the generator (``None`` if it recorded none); ``draws``: attempts
+            implied by the draw indices (max draw index + 1 per family and task).
+        size_bytes: bytes on disk (dataset files only).
+    """
+
+    root: Path
+    episodes: int
+    frames: int
+    fps: int
+    cameras: tuple[str, ...]
+    codec: str
+    tasks: int
+    by_family: dict[str, int]
+    by_condition: dict[str, int]
+    kept: int
+    negatives: int
+    unsafe: int
+    attempts: int | None
+    draws: int
+    size_bytes: int
+
+    @property
+    def duration_s(self) -> float:
+        return self.frames / self.fps if self.fps else 0.0
+
+    @property
+    def yield_(self) -> float | None:
+        """Kept episodes per attempt (recorded attempts, else the draw count); ``None`` if unknown."""
+        denom = self.attempts if self.attempts else self.draws
+        return self.kept / denom if denom else None
+
+
+def summarize(root: Path) -> DatasetSummary:
+    reader = DatasetReader(Path(root))
+    metas = [r.meta for r in reader.records()]
+    last_draw: dict[tuple[str, int], int] = {}
+    for m in metas:
+        key = (m.family, m.task_id)
+        last_draw[key] = max(last_draw.get(key, -1), m.draw_index)
+    size = sum(p.stat().st_size for p in Path(root).rglob("*")
+               if p.is_file() and layout.WORK_DIR not in p.relative_to(root).parts)
+    return DatasetSummary(
+        root=Path(root), episodes=reader.num_episodes, frames=reader.num_frames, fps=reader.schema.fps,
+        cameras=reader.schema.cameras, codec=reader.video.codec, tasks=len(reader.tasks),
+        by_family=dict(sorted(Counter(m.family for m in metas).items())),
+        by_condition=dict(sorted(Counter(m.condition for m in metas).items())),
+        kept=sum(m.kept for m in metas), negatives=sum(not m.kept for m in metas),
+        unsafe=sum(not m.verdict for m in metas), attempts=reader.info["mgdata"].get("attempts"),
+        draws=sum(d + 1 for d in last_draw.values()), size_bytes=size,
+    )
+
+
+def format_summary(s: DatasetSummary) -> list[str]:
+    """Human-readable lines for ``mgdata info``."""
+    def counts(d: dict[str, int]) -> str:
+        return ", ".join(f"{k} {v}" for k, v in d.items()) or "none"
+
+    if s.yield_ is None:
+        yld = "unknown"
+    elif s.attempts:
+        yld = f"{s.yield_:.1%} ({s.kept} kept of {s.attempts} attempts)"
+    else:
+        yld = f"{s.yield_:.1%} ({s.kept} kept of {s.draws} draws, from the draw indices)"
+    return [
+        f"dataset     {s.root}",
+        f"episodes    {s.episodes} ({s.kept} kept, {s.negatives} labelled negatives, {s.unsafe} unsafe)",
+        f"frames      {s.frames} at {s.fps} Hz ({s.duration_s / 60:.1f} min)",
+        f"cameras     {', '.join(s.cameras) or 'none'} ({s.codec})",
+        f"tasks       {s.tasks} prompts",
+        f"families    {counts(s.by_family)}",
+        f"conditions  {counts(s.by_condition)}",
+        f"yield       {yld}",
+        f"size        {s.size_bytes / 1e6:.1f} MB",
+    ]

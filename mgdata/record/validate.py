@@ -1,0 +1,301 @@
+"""``mgdata validate``: check a dataset's structure, counts, timestamps, stats and safety record.
+
+Every problem is one line naming the file or episode; nothing raises past :func:`validate_dataset` for a
+corrupt dataset. Work left by an interrupted writer (staged episodes, an uncommitted or not yet installed
+commit) is reported as a note: the dataset is valid up to its last complete episode.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+
+from mgdata.errors import MgdataError
+from mgdata.record import layout
+from mgdata.record.audit import SafetyAuditor
+from mgdata.record.commit import sha256_file
+from mgdata.record.episodes import EpisodeRecord, stats_features
+from mgdata.record.reader import DatasetReader
+from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, numeric_stats
+from mgdata.record.video import decode, probe
+
+_ERRORS = (MgdataError, OSError, ValueError, KeyError, TypeError, IndexError, pa.ArrowException)
+
+
+@dataclass
+class ValidationReport:
+    """What :func:`validate_dataset` found; ``ok`` when there are no problems (notes are informational)."""
+
+    root: Path
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    episodes: int = 0
+    frames: int = 0
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationReport:
+    """Validate the dataset at ``root``. ``decode_all`` decodes every video frame (default: demux every
+    packet and decode each episode's first frame)."""
+    report = ValidationReport(Path(root))
+    try:
+        reader = DatasetReader(Path(root))
+    except _ERRORS as err:
+        report.problems.append(str(err))
+        return report
+    report.episodes, report.frames = reader.num_episodes, reader.num_frames
+    if reader.files.pending_commit:
+        report.notes.append("a committed episode is not yet installed (writer killed mid-install); read "
+                            "through its commit manifest; the next DatasetWriter.open finishes it")
+    for rel in reader.files.leftovers:
+        report.notes.append(f"{rel}: uncommitted work of an interrupted writer (ignored; removed on the next "
+                            "DatasetWriter.open)")
+    records = reader.records()
+    _guard(report, lambda: _check_info(reader, report))
+    _guard(report, lambda: _check_index(reader, records, report))
+    values = _guard(report, lambda: _check_data(reader, records, report)) or {}
+    for key in [layout.video_key(c) for c in reader.schema.cameras]:
+        _guard(report, lambda key=key: _check_videos(reader, records, key, decode_all, report))
+    _guard(report, lambda: _check_stats(reader, records, values, report))
+    _guard(report, lambda: _check_unreferenced(reader, records, report))
+    _guard(report, lambda: _check_checksums(reader, report))
+    return report
+
+
+def _guard(report: ValidationReport, check: Callable[[], object]) -> object:
+    try:
+        return check()
+    except _ERRORS as err:
+        report.problems.append(str(err))
+        return None
+
+
+def _check_info(reader: DatasetReader, report: ValidationReport) -> None:
+    feats = reader.info["features"]
+    where = reader.files.path(layout.INFO_PATH)
+    for col in layout.all_columns(reader.schema):
+        ft = feats.get(col.key)
+        if ft is None or ft.get("dtype") != col.dtype or list(ft.get("shape", [])) != [col.width]:
+            report.problems.append(f"{where}: feature {col.key!r} is {ft}, expected dtype {col.dtype} shape "
+                                   f"[{col.width}]")
+    if reader.info["total_tasks"] != len(reader.tasks):
+        report.problems.append(f"{where}: total_tasks {reader.info['total_tasks']}, "
+                               f"{layout.TASKS_PATH} has {len(reader.tasks)}")
+    if reader.num_episodes and reader.info.get("splits", {}).get("train") != f"0:{reader.num_episodes}":
+        report.problems.append(f"{where}: splits {reader.info.get('splits')} do not cover the "
+                               f"{reader.num_episodes} episodes")
+
+
+def _check_index(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
+    start = 0
+    for rec in records:
+        where = f"episode {rec.index}"
+        if rec.length <= 0:
+            report.problems.append(f"{where}: length {rec.length}")
+        if rec.from_index != start:
+            report.problems.append(f"{where}: dataset_from_index {rec.from_index}, expected {start}")
+        if rec.task not in reader.tasks:
+            report.problems.append(f"{where}: task {rec.task!r} is not in {layout.TASKS_PATH}")
+        start = rec.from_index + rec.length
+    if start != reader.num_frames:
+        report.problems.append(f"{reader.files.path(layout.INFO_PATH)}: total_frames {reader.num_frames}, "
+                               f"the episodes hold {start}")
+
+
+def _check_data(reader: DatasetReader, records: list[EpisodeRecord],
+                report: ValidationReport) -> dict[str, list[np.ndarray]]:
+    """Row layout of each data file, per-episode columns, and the safety audit; returns all values."""
+    cols = layout.all_columns(reader.schema)
+    values: dict[str, list[np.ndarray]] = {c.key: [] for c in cols}
+    expected_schema = layout.data_arrow_schema(reader.schema)
+    auditor = SafetyAuditor(reader.schema.propositions, reader.spec)
+    fps = reader.schema.fps
+    for ref in sorted({r.data for r in records}):
+        path = reader.files.path(layout.data_path(ref))
+        try:
+            table = reader.data_table(ref)
+        except _ERRORS as err:
+            report.problems.append(str(err))
+            continue
+        for f in expected_schema:
+            got = table.schema.field(f.name).type if f.name in table.column_names else None
+            if got != f.type:
+                report.problems.append(f"{path}: column {f.name!r} has type {got}, expected {f.type}")
+        in_file = [r for r in records if r.data == ref]
+        if table.num_rows != sum(r.length for r in in_file):
+            report.problems.append(f"{path}: {table.num_rows} rows, its episodes "
+                                   f"{[r.index for r in in_file]} hold {sum(r.length for r in in_file)}")
+        offset = 0
+        for rec in in_file:
+            rows = table.slice(offset, rec.length)
+            offset += rec.length
+            got = {c.key: c.from_arrow(rows.column(c.key)) for c in cols if c.key in rows.column_names}
+            task = reader.tasks.index(rec.task) if rec.task in reader.tasks else -1
+            expect = {
+                "index": np.arange(rec.from_index, rec.to_index), "frame_index": np.arange(rec.length),
+                "episode_index": np.full(rec.length, rec.index),
+                "timestamp": layout.timestamps(rec.length, fps), "task_index": np.full(rec.length, task),
+            }
+            for key, want in expect.items():
+                have = got.get(key)
+                if have is None or len(have) != rec.length or not np.array_equal(have[:, 0], want):
+                    report.problems.append(f"{path}: episode {rec.index}: column {key!r} is not "
+                                           f"{_describe(key)}")
+            for key, arr in got.items():
+                values[key].append(arr)
+            try:
+                report.problems += auditor.audit(reader.episode(rec.index))
+            except _ERRORS as err:
+                report.problems.append(f"episode {rec.index}: {err}")
+    return values
+
+
+def _describe(key: str) -> str:
+    return {"index": "the episode's contiguous global frame range", "frame_index": "0..length-1",
+            "episode_index": "the episode index", "timestamp": "frame_index / fps (float32)",
+            "task_index": "the index of the episode's task"}[key]
+
+
+def _check_videos(reader: DatasetReader, records: list[EpisodeRecord], key: str, decode_all: bool,
+                  report: ValidationReport) -> None:
+    s = reader.schema
+    for ref in sorted({r.videos[key].ref for r in records}):
+        path = reader.files.path(layout.video_path(key, ref))
+        in_file = [r for r in records if r.videos[key].ref == ref]
+        starts, offset = [], 0
+        for rec in in_file:
+            span = rec.videos[key]
+            if abs(span.from_timestamp - offset / s.fps) > 1e-9 or \
+                    abs(span.to_timestamp - (offset + rec.length) / s.fps) > 1e-9:
+                report.problems.append(f"episode {rec.index}: {key} spans {span.from_timestamp}.."
+                                       f"{span.to_timestamp} s, expected {offset / s.fps}.."
+                                       f"{(offset + rec.length) / s.fps} s")
+            starts.append(offset)
+            offset += rec.length
+        try:
+            info = probe(path, s.fps)
+        except _ERRORS as err:
+            report.problems.append(str(err))
+            continue
+        if (info.width, info.height) != (s.image_width, s.image_height):
+            report.problems.append(f"{path}: frames are {info.width}x{info.height}, expected "
+                                   f"{s.image_width}x{s.image_height}")
+        if info.frames != offset or not np.array_equal(info.frame_indices, np.arange(info.frames)):
+            report.problems.append(f"{path}: {info.frames} frames (timestamps "
+                                   f"{_ts_summary(info.frame_indices)}), its episodes "
+                                   f"{[r.index for r in in_file]} need {offset} at 0..{offset - 1}")
+            continue
+        not_key = [rec.index for rec, st in zip(in_file, starts, strict=True) if not info.keyframes[st]]
+        if not_key:
+            report.problems.append(f"{path}: episodes {not_key} do not start on a keyframe")
+        try:
+            if decode_all:
+                decode(path, 0, offset, s.fps)
+            else:
+                for st in starts:
+                    decode(path, st, 1, s.fps)
+        except _ERRORS as err:
+            report.problems.append(str(err))
+
+
+def _ts_summary(idx: np.ndarray) -> str:
+    return "none" if len(idx) == 0 else f"{idx[0]}..{idx[-1]}"
+
+
+def _check_stats(reader: DatasetReader, records: list[EpisodeRecord], values: dict[str, list[np.ndarray]],
+                 report: ValidationReport) -> None:
+    if not records:
+        return
+    where = reader.files.path(layout.STATS_PATH)
+    stored = reader.stats()
+    s = reader.schema
+    hist_sum = {k: sum(r.histograms[k] for r in records) for k in records[0].histograms}
+    complete = all(sum(len(v) for v in values[c.key]) == reader.num_frames for c in layout.all_columns(s))
+    for key, image in stats_features(s):
+        fs = stored.get(key)
+        if fs is None:
+            report.problems.append(f"{where}: no stats for {key!r}")
+            continue
+        problem = _stats_sanity(fs, image, reader.num_frames)
+        if problem:
+            report.problems.append(f"{where}: {key}: {problem}")
+            continue
+        if image:
+            want = image_stats(hist_sum[key], reader.num_frames)
+        elif complete:
+            want = numeric_stats(np.concatenate(values[key]))
+        else:
+            continue  # unreadable data was reported already
+        if not _close(fs, want):
+            report.problems.append(f"{where}: {key} stats differ from the ones recomputed from the data")
+    for rec in records:
+        for key, image in stats_features(s):
+            problem = _stats_sanity(rec.stats[key], image, rec.length)
+            if problem:
+                report.problems.append(f"episode {rec.index}: stats/{key}: {problem}")
+            elif image and not _close(rec.stats[key], image_stats(rec.histograms[key], rec.length)):
+                report.problems.append(f"episode {rec.index}: stats/{key} differ from its pixel histogram")
+
+
+def _stats_sanity(fs: FeatureStats, image: bool, count: int) -> str | None:
+    missing = [k for k in STAT_KEYS if k not in fs]
+    if missing:
+        return f"missing {missing}"
+    shape = fs["mean"].shape
+    if image and shape != (3, 1, 1):
+        return f"shape {shape}, expected (3, 1, 1)"
+    if any(fs[k].shape != shape for k in STAT_KEYS if k != "count") or fs["count"].shape != (1,):
+        return "inconsistent shapes"
+    if int(fs["count"][0]) != count:
+        return f"count {int(fs['count'][0])}, expected {count}"
+    arr = {k: fs[k].astype(np.float64) for k in STAT_KEYS}
+    if not all(np.all(np.isfinite(v)) for v in arr.values()):
+        return "non-finite values"
+    order = ["min", "q01", "q10", "q50", "q90", "q99", "max"]
+    if any(np.any(arr[a] > arr[b] + 1e-9) for a, b in itertools.pairwise(order)):
+        return "quantiles out of order (expected min <= q01 <= ... <= q99 <= max)"
+    if np.any(arr["mean"] < arr["min"] - 1e-9) or np.any(arr["mean"] > arr["max"] + 1e-9) or \
+            np.any(arr["std"] < 0):
+        return "mean outside [min, max] or negative std"
+    if image and (np.any(arr["min"] < 0) or np.any(arr["max"] > 1)):
+        return "image stats outside [0, 1]"
+    return None
+
+
+def _close(a: FeatureStats, b: FeatureStats) -> bool:
+    return all(np.allclose(np.asarray(a[k], np.float64), np.asarray(b[k], np.float64), rtol=1e-6, atol=1e-9)
+               for k in STAT_KEYS)
+
+
+def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],
+                        report: ValidationReport) -> None:
+    used = {layout.data_path(r.data) for r in records} | {layout.episodes_path(r.meta_file) for r in records}
+    used |= {layout.video_path(k, span.ref) for r in records for k, span in r.videos.items()}
+    for pattern in ("data/*/*.parquet", layout.EPISODES_DIR + "/*/*.parquet", "videos/*/*/*.mp4"):
+        for rel in reader.files.glob(pattern):
+            if rel not in used:
+                report.problems.append(f"{reader.root / rel}: not referenced by any episode (LeRobot would "
+                                       "still load data files)")
+
+
+def _check_checksums(reader: DatasetReader, report: ValidationReport) -> None:
+    recorded = reader.info["mgdata"].get("sha256", {})
+    for rel, digest in recorded.items():
+        path = reader.files.path(rel)
+        if not path.exists():
+            report.problems.append(f"{reader.root / rel}: missing")
+        elif sha256_file(path) != digest:
+            report.problems.append(f"{reader.root / rel}: content differs from the SHA-256 recorded in "
+                                   f"{layout.INFO_PATH} (corrupted after it was written)")
+    if reader.num_episodes:
+        for rel in [layout.STATS_PATH, layout.TASKS_PATH]:
+            if rel not in recorded:
+                report.problems.append(f"{reader.root / rel}: no checksum recorded in {layout.INFO_PATH}")

@@ -1,0 +1,184 @@
+"""Loader views: the dataset re-keyed for a model family's fine-tuning code, written as a new dataset.
+
+``mgdata export DATASET OUT --format F`` picks cameras and renames keys per convention; video packets are
+copied, never re-encoded, so frames are bit-identical to the source:
+
+- ``smolvla``: LeRobot v3.0 with ``observation.images.top`` (an overview camera) and
+  ``observation.images.wrist``, as the SmolVLA fine-tuning recipes expect.
+- ``pi0`` (pi0 / pi0.5 via openpi, which reads LeRobot v2.1): v2.1 with openpi's LIBERO-style keys
+  ``image`` (overview), ``wrist_image``, ``state``, ``actions``.
+- ``groot`` (GR00T N1.5, LeRobot v2.1 + ``meta/modality.json``): every camera (or ``--cameras``), state and
+  action split into ``single_arm`` (0:7) and ``gripper`` (7:8), the task from ``task_index``.
+- ``v2.1``: the whole dataset in the LeRobot v2.1 layout, for readers pinned to it.
+
+Safety columns and episode metadata travel with every view.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from mgdata.errors import DatasetError
+from mgdata.record import layout
+from mgdata.record.commit import sha256_file
+from mgdata.record.episode import DatasetSchema
+from mgdata.record.episodes import HISTOGRAM_PREFIX
+from mgdata.record.metafiles import dump_json
+from mgdata.record.reader import DatasetReader, read_parquet
+
+FORMATS = ("v2.1", "pi0", "smolvla", "groot")
+
+
+@dataclass(frozen=True)
+class ViewSpec:
+    """How an export selects and renames features.
+
+    Attributes:
+        version: output layout, ``"v3.0"`` or ``"v2.1"``.
+        cameras: source camera → output video key, in output order (unlisted cameras are dropped).
+        renames: source feature key → output key for non-video features (others keep their key).
+        modality: write GR00T's ``meta/modality.json``.
+    """
+
+    version: str
+    cameras: dict[str, str]
+    renames: dict[str, str] = field(default_factory=dict)
+    modality: bool = False
+
+    def key(self, source: str) -> str | None:
+        """The output key of a source feature key, ``None`` if the view drops it."""
+        if source.startswith(layout.IMAGE_PREFIX):
+            return self.cameras.get(layout.camera_name(source))
+        return self.renames.get(source, source)
+
+
+def _pick(schema: DatasetSchema, name: str | None, role: str, wrist: bool) -> str:
+    if name is not None:
+        if name not in schema.cameras:
+            raise DatasetError(f"--{role} {name!r} is not a camera of this dataset "
+                               f"({', '.join(schema.cameras)})")
+        return name
+    if wrist:
+        if "wrist" in schema.cameras:
+            return "wrist"
+        raise DatasetError(f"no camera named 'wrist' ({', '.join(schema.cameras)}); pass --wrist")
+    others = [c for c in schema.cameras if c != "wrist"]
+    if not others:
+        raise DatasetError("the dataset has no overview camera; pass --overview")
+    return others[0]
+
+
+def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wrist: str | None = None,
+             cameras: tuple[str, ...] | None = None) -> ViewSpec:
+    """The :class:`ViewSpec` of export format ``fmt`` (one of :data:`FORMATS`)."""
+    if fmt not in FORMATS:
+        raise DatasetError(f"export format {fmt!r} is unknown; expected one of {', '.join(FORMATS)}")
+    if fmt in ("pi0", "smolvla"):
+        over, wri = _pick(schema, overview, "overview", False), _pick(schema, wrist, "wrist", True)
+        if over == wri:
+            raise DatasetError(f"the overview and wrist cameras are both {over!r}")
+        if fmt == "pi0":
+            return ViewSpec("v2.1", {over: "image", wri: "wrist_image"},
+                            {layout.STATE: "state", layout.ACTION: "actions"})
+        return ViewSpec("v3.0", {over: layout.video_key("top"), wri: layout.video_key("wrist")})
+    chosen = cameras or schema.cameras
+    unknown = [c for c in chosen if c not in schema.cameras]
+    if unknown:
+        raise DatasetError(f"--cameras {unknown} are not cameras of this dataset "
+                           f"({', '.join(schema.cameras)})")
+    return ViewSpec("v2.1", {c: layout.video_key(c) for c in chosen}, modality=fmt == "groot")
+
+
+def export_dataset(root: Path, out: Path, fmt: str, *, overview: str | None = None, wrist: str | None = None,
+                   cameras: tuple[str, ...] | None = None) -> Path:
+    """Write the ``fmt`` view of the dataset at ``root`` into ``out`` (which must not exist); returns ``out``.
+
+    The export is built in ``<out>.partial`` and renamed into place when complete.
+    """
+    from mgdata.record.export_v21 import write_v21
+
+    out = Path(out)
+    if out.exists():
+        raise DatasetError(f"{out}: already exists; choose a new output folder")
+    reader = DatasetReader(Path(root))
+    if not reader.num_episodes:
+        raise DatasetError(f"{root}: the dataset has no episodes to export")
+    view = view_for(fmt, reader.schema, overview=overview, wrist=wrist, cameras=cameras)
+    partial = out.with_name(out.name + ".partial")
+    shutil.rmtree(partial, ignore_errors=True)
+    partial.mkdir(parents=True)
+    if view.version == "v3.0":
+        write_v30_view(reader, partial, view)
+    else:
+        write_v21(reader, partial, view)
+    os.replace(partial, out)
+    return out
+
+
+def renamed_features(reader: DatasetReader, view: ViewSpec) -> dict:
+    """``info.json`` features of the view, in source order with cameras in view order."""
+    feats = reader.info["features"]
+    out: dict = {}
+    for key, ft in feats.items():
+        if ft["dtype"] != "video" and key not in layout.INDEX_COLUMNS:
+            out[view.key(key)] = ft
+    for cam, new in view.cameras.items():
+        out[new] = feats[layout.video_key(cam)]
+    out.update({k: feats[k] for k in layout.INDEX_COLUMNS})
+    return out
+
+
+def rename_stats(stats: dict, view: ViewSpec) -> dict:
+    return {view.key(k): v for k, v in stats.items() if view.key(k) is not None}
+
+
+def _rename_column(name: str, view: ViewSpec) -> str | None:
+    """Episodes-table column under the view (``videos/<k>/…``, ``stats/<k>/…``, histograms)."""
+    for prefix in ("videos/", "stats/", HISTOGRAM_PREFIX):
+        if name.startswith(prefix):
+            key, _, rest = name[len(prefix):].partition("/")
+            new = view.key(key)
+            return None if new is None else prefix + new + ("/" + rest if rest else "")
+    return name
+
+
+def rename_table(table: pa.Table, view: ViewSpec, episodes: bool = False) -> pa.Table:
+    names = [(_rename_column(n, view) if episodes else view.key(n)) for n in table.column_names]
+    keep = [i for i, n in enumerate(names) if n is not None]
+    return pa.Table.from_arrays([table.column(i) for i in keep], names=[names[i] for i in keep])
+
+
+def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
+    """A v3.0 dataset with the view's cameras and keys (files copied or re-keyed, never re-encoded)."""
+    records = reader.records()
+    written: list[str] = []
+
+    def target(rel: str) -> Path:
+        path = out / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        written.append(rel)
+        return path
+
+    for ref in sorted({r.data for r in records}):
+        rel = layout.data_path(ref)
+        pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
+    for ref in sorted({r.meta_file for r in records}):
+        rel = layout.episodes_path(ref)
+        pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view, episodes=True), target(rel))
+    for cam, new in view.cameras.items():
+        for ref in sorted({r.videos[layout.video_key(cam)].ref for r in records}):
+            src = reader.files.path(layout.video_path(layout.video_key(cam), ref))
+            shutil.copyfile(src, target(layout.video_path(new, ref)))
+    shutil.copyfile(reader.files.path(layout.TASKS_PATH), target(layout.TASKS_PATH))
+    stats = json.loads(reader.files.path(layout.STATS_PATH).read_text())
+    target(layout.STATS_PATH).write_text(dump_json(rename_stats(stats, view)))
+    info = dict(reader.info, features=renamed_features(reader, view))
+    info["mgdata"] = dict(info["mgdata"], sha256={rel: sha256_file(out / rel) for rel in sorted(written)})
+    (out / layout.INFO_PATH).write_text(dump_json(info))
