@@ -8,8 +8,8 @@ a held-object geom:
 
 * moving ↔ world: invalid when closer than the query's margin (the planning margin while planning, 0 on the
   exact recheck);
-* robot ↔ robot: invalid when closer than ``self_margin``; contacts inside the gripper (palm and fingers
-  touching each other) are ignored;
+* robot ↔ robot and robot ↔ held object: invalid when closer than ``self_margin``; contacts inside the
+  gripper (palm and fingers touching each other) and between the gripper and the object it holds are ignored;
 * pairs named in :class:`~mgdata.motion.types.AllowedContacts` are ignored;
 * pairs already within the margin at the start or goal of a query are judged exactly (penetration only), so a
   motion may leave a configuration that sits close to a surface without granting it any real contact.
@@ -169,7 +169,8 @@ class CollisionChecker:
         any_world = world[:, None] | world[None, :]
         thr = np.where(any_world, self._margin, self.config.self_margin)
         thr = np.where(self._exact, np.minimum(thr, 0.0), thr)
-        ignore = (world[:, None] & world[None, :]) | (gripper[:, None] & gripper[None, :]) | self._allowed
+        hand = gripper | (self._kind == HELD)
+        ignore = (world[:, None] & world[None, :]) | (hand[:, None] & hand[None, :]) | self._allowed
         self._threshold = np.where(ignore, -np.inf, thr)
 
     def relax_pairs_at(self, q: np.ndarray) -> None:

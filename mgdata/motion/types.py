@@ -173,6 +173,9 @@ NO_CONTACTS = AllowedContacts()
 class Attachment:
     """A held object moving rigidly with the TCP while paths are checked.
 
+    Its contacts with the gripper (palm, fingers) and among its own parts are ignored; its contacts with the
+    rest of the robot and the world are checked like the robot's (inflated by the planning margin).
+
     Attributes:
         body: name of the object's root body; it must hang from a free joint.
         tcp_T_body: 4x4 pose of that body in the TCP frame (measured from the live state at grasp time).

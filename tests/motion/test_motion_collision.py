@@ -111,6 +111,25 @@ def _table_distances(checker: CollisionChecker, q: np.ndarray) -> list[float]:
     return out
 
 
+def test_a_held_object_may_touch_the_gripper_but_nothing_else(wall_model: mujoco.MjModel) -> None:
+    checker = CollisionChecker(wall_model, CheckConfig())
+    data = home_data(wall_model)
+    data.qpos[7:9] = 0.019  # fingers 2 mm into the 4 cm box
+    tcp = data.site_xpos[wall_model.site(TCP_SITE).id]
+    box_adr = wall_model.jnt_qposadr[wall_model.body("box").jntadr[0]]
+    data.qpos[box_adr:box_adr + 3] = tcp
+    checker.sync(data)
+    checker.configure(NO_CONTACTS, None, 0.0)
+    assert {c.body2 for c in checker.collisions(HOME_Q)} == {"box"}
+    tcp_T_box = np.eye(4)
+    tcp_T_box[:3, :3] = data.site_xmat[wall_model.site(TCP_SITE).id].reshape(3, 3).T  # box axis-aligned
+    checker.configure(NO_CONTACTS, Attachment("box", tcp_T_box), 0.0)
+    assert checker.valid(HOME_Q)
+    tcp_T_box[2, 3] = 0.48  # the same box held 48 cm further down the approach axis: in the table
+    checker.configure(NO_CONTACTS, Attachment("box", tcp_T_box), 0.0)
+    assert "box <-> table" in checker.explain(HOME_Q)
+
+
 def test_bad_names_are_scene_errors(planner: MotionPlanner) -> None:
     with pytest.raises(SceneError, match=r"AllowedContacts names body 'jarr'.*'box'"):
         planner.checker.configure(AllowedContacts((("hand", "jarr"),)), None, 0.0)
