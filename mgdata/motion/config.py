@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import qpsolvers
+
 from mgdata.errors import RecipeError
 from mgdata.paths import recipes_dir
 
@@ -108,6 +110,10 @@ def _validate(obj: Any, section: str, source: str) -> None:
     rate = getattr(obj, "rate", None)
     if rate is not None and rate <= 0:
         raise RecipeError(f"{source}: [{section}] rate = {rate!r} must be positive")
+    solver = getattr(obj, "solver", None)
+    if solver is not None and solver not in qpsolvers.available_solvers:
+        raise RecipeError(f"{source}: [{section}] solver = {solver!r} is not an installed QP solver; "
+                          f"installed: {sorted(qpsolvers.available_solvers)}")
 
 
 def _coerce(value: Any, type_name: str, where: str) -> Any:

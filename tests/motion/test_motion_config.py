@@ -36,6 +36,7 @@ def test_partial_file_keeps_defaults(tmp_path: Path) -> None:
         ("[linear]\nspeed = -0.1\n", r"\[linear\] speed = -0.1 must not be negative"),
         ("[retime]\nrate = 0\n", r"\[retime\] rate = 0.0 must be positive"),
         ("ik = 3\n", r"\[ik\] must be a table"),
+        ("[ik]\nsolver = \"cplex\"\n", r"\[ik\] solver = 'cplex' is not an installed QP solver.*daqp"),
         ("[ik\n", "not valid TOML"),
     ],
 )
