@@ -1,0 +1,98 @@
+"""``mgdata grasps list | generate | validate``: inspect, create and check the grasp database.
+
+* ``generate MODEL…``: candidate grasps from each model's geometry (``category/model`` or glob patterns such
+  as ``'jar/*'``); replaces the model's *generated* grasps and keeps annotated ones.
+* ``validate [MODEL…]``: run the in-simulation check on unvalidated grasps (``--all``: every grasp) and store
+  each result; the file is rewritten atomically after every model, so an interrupted run keeps its progress.
+* ``list [MODEL…]``: grasp counts per model and validation status.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from mgdata.errors import GraspDBError
+from mgdata.grasps.db import Grasp, GraspDB
+from mgdata.paths import grasps_dir
+
+Dir = Annotated[Path | None, typer.Option("--dir", help="Grasp DB folder (default: the project's grasps/).")]
+Models = Annotated[list[str] | None, typer.Argument(help="Models or globs, e.g. 'jar/*' (default: all).")]
+All = Annotated[bool, typer.Option("--all", help="Re-check grasps that already have a result.")]
+
+
+def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
+    found = sorted({n for n in names for p in patterns if fnmatch.fnmatchcase(n, p)})
+    if not found:
+        raise GraspDBError(f"{' '.join(patterns)!r} matches no {what}")
+    return found
+
+
+def register(app: typer.Typer) -> None:
+    grasps = typer.Typer(help="Inspect, generate and validate the grasp database (grasps/*.json).",
+                         no_args_is_help=True)
+    app.add_typer(grasps, name="grasps")
+
+    @grasps.command("list")
+    def list_(models: Models = None, directory: Dir = None) -> None:
+        """Grasp counts per model: total, valid, invalid, unvalidated."""
+        db = GraspDB.load_dir(directory or grasps_dir())
+        keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
+        table = Table("model", "grasps", "valid", "invalid", "unvalidated", "sources")
+        for key in keys:
+            gs = db.grasps(key)
+            counts = [sum(g.status == s for g in gs) for s in ("valid", "invalid", "unvalidated")]
+            table.add_row(key, str(len(gs)), *map(str, counts), ", ".join(sorted({g.source for g in gs})))
+        Console().print(table)
+
+    @grasps.command("generate")
+    def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
+                 directory: Dir = None) -> None:
+        """Generate candidate grasps from geometry (replaces generated grasps, keeps annotated ones)."""
+        from mgdata.grasps.candidates import candidates
+        from mgdata.grasps.config import load_grasp_config
+        from mgdata.sim.assets import get_model, model_names
+
+        root = directory or grasps_dir()
+        cand_cfg = load_grasp_config().candidates
+        db = GraspDB.load_dir(root)
+        for key in _match(models, model_names(), "object model"):
+            kept = [g for g in db.objects.get(key, ()) if g.source != "generated"]
+            ids = {g.id for g in kept}
+            new = [g for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
+            if not kept and not new:
+                typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
+                continue
+            db = db.with_object(key, kept + new)
+            typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
+        for path in db.write_dir(root):
+            typer.echo(f"wrote {path}")
+
+    @grasps.command("validate")
+    def validate(models: Models = None, all_: All = False, directory: Dir = None) -> None:
+        """Check grasps in simulation (reach, close, lift) and record valid/invalid with the measurement."""
+        from mgdata.grasps.check import check_grasp
+        from mgdata.grasps.config import load_grasp_config
+
+        root = directory or grasps_dir()
+        settings = load_grasp_config()
+        db = GraspDB.load_dir(root)
+        keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
+        for key in keys:
+            updated: list[Grasp] = []
+            for g in db.grasps(key):
+                if g.status == "unvalidated" or all_:
+                    status, detail = check_grasp(key, g, settings.check, settings.grip)
+                    g = g.with_status(status, detail)
+                    typer.echo(f"{key} {g.id}: {status} ({detail})")
+                updated.append(g)
+            db = db.with_object(key, updated)
+            db.write_dir(root)
+        valid = sum(g.status == "valid" for k in keys for g in db.grasps(k))
+        total = sum(len(db.grasps(k)) for k in keys)
+        typer.echo(f"{valid} of {total} grasps valid over {len(keys)} model(s)")
