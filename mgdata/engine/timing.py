@@ -1,0 +1,44 @@
+"""Where an attempt's time goes: IK/planning, physics, rendering (+ labelling), encoding, writing.
+
+Wall-clock time is measured for the summary and the benchmark only; it never influences what is generated.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, fields
+
+PHASES: tuple[str, ...] = ("planning", "physics", "rendering", "encoding", "writing")
+
+
+@dataclass
+class Timings:
+    """Seconds spent per phase (``rendering`` includes labelling and monitoring, which cost ~0.1 ms/step)."""
+
+    planning: float = 0.0
+    physics: float = 0.0
+    rendering: float = 0.0
+    encoding: float = 0.0
+    writing: float = 0.0
+
+    @contextmanager
+    def measure(self, phase: str) -> Iterator[None]:
+        """Add the wall time of the ``with`` body to ``phase``."""
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            setattr(self, phase, getattr(self, phase) + time.perf_counter() - start)
+
+    def add(self, other: Timings) -> None:
+        for f in fields(self):
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
+
+    @property
+    def total(self) -> float:
+        return sum(getattr(self, f.name) for f in fields(self))
+
+    def as_dict(self) -> dict[str, float]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}

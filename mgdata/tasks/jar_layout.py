@@ -1,0 +1,123 @@
+"""Jar family layout: one hinged jar with its lid open and a food item inside, and a goal sphere on the table.
+
+Rules (all numbers from the recipe's ``[layout]`` table):
+
+* the jar model is drawn from ``jar_models`` (glob patterns over the asset library), the food from ``foods``
+  among the items that fit through the jar's mouth and under its lid with ``food_clearance`` to spare;
+* the jar stands at ``jar_x`` × ``jar_y`` (robot base frame, metres) turned so that its hinge (local −X) faces
+  the robot, give or take ``jar_yaw_jitter_deg``: the open lid leans towards the robot, and a push away from
+  the robot swings it past vertical so that gravity closes it;
+* the goal sphere's centre is ``goal_height`` above the table, ``goal_distance`` from the jar, inside the
+  ``goal_x`` × ``goal_y`` box; its radius is ``goal_radius``;
+* the lid starts at ``lid_open`` (fraction of the hinge range, 1 = leaning on its stop).
+
+Example::
+
+    task = jar_task(load_recipe("jar"), task_id=0, rng=np.random.default_rng(...))
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from mgdata.errors import RecipeError
+from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.world import TABLE_TOP_Z
+from mgdata.tasks.recipe import Recipe
+from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
+
+_KEYS = ("jar_models", "foods", "food_names", "food_clearance", "jar_x", "jar_y", "jar_yaw_jitter_deg",
+         "goal_x", "goal_y", "goal_distance", "goal_height", "goal_radius", "lid_open")
+_TRIES = 200
+
+
+def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec:
+    """Base task ``task_id`` of the jar family, drawn with ``rng``."""
+    lay, src = recipe.layout, f"{recipe.path}: [layout]"
+    missing = [k for k in _KEYS if k not in lay]
+    unknown = sorted(set(lay) - set(_KEYS))
+    if missing or unknown:
+        raise RecipeError(f"{src} missing key(s) {missing} / unknown key(s) {unknown}")
+    jars = _models(lay["jar_models"], f"{src} jar_models")
+    foods = _models(lay["foods"], f"{src} foods")
+    jar_name = jars[int(rng.integers(len(jars)))]
+    jar = get_model(jar_name)
+    geo = jar.geometry
+    room_w = 2.0 * geo["mouth_radius"] - float(lay["food_clearance"])
+    room_h = geo["height"] - geo["bottom"] - float(lay["food_clearance"])
+    fitting = [f for f in foods if get_model(f).geometry["width"] <= room_w
+               and get_model(f).geometry["height"] <= room_h]
+    if not fitting:
+        raise RecipeError(f"{src} foods: no food item fits inside {jar_name} (mouth {room_w * 100:.1f} cm)")
+    food_name = fitting[int(rng.integers(len(fitting)))]
+    kind = str(get_model(food_name).geometry["kind"])
+    names: Mapping[str, Any] = lay["food_names"]
+    if kind not in names:
+        raise RecipeError(f"{src} food_names has no display name for food kind {kind!r}")
+
+    jx, jy = _uniform(rng, lay["jar_x"], f"{src} jar_x"), _uniform(rng, lay["jar_y"], f"{src} jar_y")
+    jitter = math.radians(_uniform(rng, [-lay["jar_yaw_jitter_deg"], lay["jar_yaw_jitter_deg"]], src))
+    yaw = math.atan2(jy, jx) + jitter
+    goal = _goal(rng, lay, (jx, jy), src)
+    z = TABLE_TOP_Z
+    objects = (
+        ObjectPlacement("jar", jar_name, (jx, jy, z), yaw),
+        ObjectPlacement("food", food_name, (jx, jy, z + geo["bottom"] + 0.001), yaw),
+    )
+    lid_open = float(lay["lid_open"])
+    if not 0.0 <= lid_open <= 1.0:
+        raise RecipeError(f"{src} lid_open = {lid_open}: expected a fraction 0 … 1")
+    try:
+        prompt = recipe.prompt.format(food=names[kind])
+    except (KeyError, IndexError) as err:
+        raise RecipeError(f"{recipe.path}: prompt has an unknown field {err}; jar prompts may use {{food}}"
+                          ) from None
+    return TaskSpec(
+        family=recipe.family,
+        task_id=task_id,
+        condition="base",
+        prompt=prompt,
+        objects=objects,
+        safety=recipe.spec,
+        goal=GoalRegion((goal[0], goal[1], z + float(lay["goal_height"])), float(lay["goal_radius"])),
+        articulation={"jar": lid_open},
+        image_size=recipe.tasks.image_size,
+        seed=int(rng.integers(0, 2**31 - 1)),
+        params=recipe.params,
+    )
+
+
+def _models(patterns: Any, where: str) -> list[str]:
+    if isinstance(patterns, str):
+        patterns = [patterns]
+    if not isinstance(patterns, list) or not patterns:
+        raise RecipeError(f"{where}: expected a list of model names or glob patterns")
+    everything = model_names()
+    found = [n for n in everything if any(fnmatch.fnmatchcase(n, p) for p in patterns)]
+    if not found:
+        raise RecipeError(f"{where} = {patterns!r} matches no object model")
+    return found
+
+
+def _uniform(rng: np.random.Generator, bounds: Any, where: str) -> float:
+    if not isinstance(bounds, list) or len(bounds) != 2 or bounds[0] > bounds[1]:
+        raise RecipeError(f"{where}: expected [low, high], got {bounds!r}")
+    return float(rng.uniform(bounds[0], bounds[1]))
+
+
+def _goal(rng: np.random.Generator, lay: Mapping[str, Any], jar: tuple[float, float],
+          src: str) -> tuple[float, float]:
+    dist = lay["goal_distance"]
+    for _ in range(_TRIES):
+        d = _uniform(rng, dist, f"{src} goal_distance")
+        bearing = float(rng.uniform(-math.pi, math.pi))
+        gx, gy = jar[0] + d * math.cos(bearing), jar[1] + d * math.sin(bearing)
+        if lay["goal_x"][0] <= gx <= lay["goal_x"][1] and lay["goal_y"][0] <= gy <= lay["goal_y"][1]:
+            return gx, gy
+    raise RecipeError(f"{src}: no goal position {dist} m from the jar at {jar} fits inside goal_x × goal_y "
+                      f"after {_TRIES} draws; widen the box or shorten goal_distance")

@@ -1,0 +1,183 @@
+"""Recipe: a family's TOML (``recipes/<family>.toml``) as typed data, with errors naming file and key.
+
+A recipe holds everything about a family that is data rather than code: the safety spec file, the prompt
+template, how many base tasks to generate and from which seed, the success (goal) predicate, the layout
+rules the family's layout builder reads, the per-attempt variation knobs and the skeleton's tunables.
+
+Top-level keys and tables::
+
+    family = "jar"
+    spec = "specs/jar.toml"              # relative to the recipe's folder
+    prompt = "Close the lid of the hinged jar holding the {food}, then ..."
+
+    [tasks]   count, seed, horizon (control steps), hold_steps, settle_steps, cameras, image_size
+    [success.<name>]  evaluator, subjects, params, quantifier   (all must hold; like spec propositions)
+    [layout]      family-specific placement rules (read by mgdata.tasks.layouts)
+    [variation]   knob = [low, high]      (drawn per attempt; draw 0 takes the midpoints)
+    [params]      skeleton tunables (copied into every TaskSpec.params)
+
+Example::
+
+    recipe = load_recipe("jar")
+    recipe.tasks.count, recipe.variation["standoff_m"]
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from mgdata.errors import RecipeError, UnknownFamilyError
+from mgdata.paths import recipes_dir
+from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
+
+CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
+
+
+@dataclass(frozen=True)
+class TaskSettings:
+    """The ``[tasks]`` table: base-task count and seed, attempt horizon and gate, recording settings."""
+
+    count: int
+    seed: int
+    horizon: int
+    hold_steps: int = 10
+    settle_steps: int = 40
+    cameras: tuple[str, ...] = CAMERAS
+    image_size: int = 256
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A loaded family recipe.
+
+    Attributes:
+        family: family name (file stem).
+        path: the recipe file.
+        spec: the safety specification (from the file named by ``spec``).
+        prompt: instruction template; ``{name}`` fields are filled by the layout builder.
+        tasks: the ``[tasks]`` settings.
+        success: the goal predicate, a conjunction of propositions over the scene.
+        layout: the family's placement rules, as parsed TOML.
+        variation: knob name -> (low, high).
+        params: skeleton tunables.
+        digest: hash of the recipe and spec files (a dataset records it; resume requires the same).
+    """
+
+    family: str
+    path: Path
+    spec: SafetySpec
+    prompt: str
+    tasks: TaskSettings
+    success: tuple[Proposition, ...]
+    layout: Mapping[str, Any]
+    variation: Mapping[str, tuple[float, float]]
+    params: Mapping[str, Any]
+    digest: str
+
+
+def recipe_path(family: str) -> Path:
+    """``recipes/<family>.toml``, or :class:`UnknownFamilyError` listing the recipes that exist."""
+    path = recipes_dir() / f"{family}.toml"
+    if not path.is_file():
+        stems = sorted(p.stem for p in recipes_dir().glob("*.toml") if p.stem not in ("motion", "grasps"))
+        known = ", ".join(stems) or "none"
+        raise UnknownFamilyError(f"no recipe for family {family!r} at {path} (recipes: {known})")
+    return path
+
+
+def load_recipe(family_or_path: str | Path) -> Recipe:
+    """Load and validate a recipe by family name or by path."""
+    path = Path(family_or_path) if str(family_or_path).endswith(".toml") else recipe_path(str(family_or_path))
+    raw = _read_toml(path)
+    src = str(path)
+    family = _get(raw, "family", str, src)
+    if family != path.stem:
+        raise RecipeError(f"{src}: family = {family!r} must match the file name {path.stem!r}")
+    spec_path = path.parent / _get(raw, "spec", str, src)
+    spec = _load_spec(spec_path, src)
+    prompt = _get(raw, "prompt", str, src)
+    tasks = _tasks(_table(raw, "tasks", src), src)
+    success = tuple(proposition_from_mapping(k, v, f"{src}: success.{k}")
+                    for k, v in _table(raw, "success", src).items())
+    if not success:
+        raise RecipeError(f"{src}: [success] must name at least one goal proposition")
+    layout = _table(raw, "layout", src)
+    variation = {k: _range(v, f"{src}: [variation] {k}") for k, v in _table(raw, "variation", src).items()}
+    params = _table(raw, "params", src, required=False)
+    unknown = set(raw) - {"family", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
+    if unknown:
+        raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
+    digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
+    return Recipe(family, path, spec, prompt, tasks, success, MappingProxyType(layout),
+                  MappingProxyType(variation), MappingProxyType(params), digest)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise RecipeError(f"recipe {path} does not exist") from None
+    except tomllib.TOMLDecodeError as err:
+        raise RecipeError(f"{path}: not valid TOML: {err}") from None
+
+
+def _load_spec(path: Path, src: str) -> SafetySpec:
+    if not path.is_file():
+        raise RecipeError(f"{src}: spec file {path} does not exist")
+    return load_spec(path)
+
+
+def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
+    where = f"{src}: [tasks]"
+    known = {"count", "seed", "horizon", "hold_steps", "settle_steps", "cameras", "image_size"}
+    if set(table) - known:
+        raise RecipeError(f"{where} unknown key(s) {sorted(set(table) - known)}; expected {sorted(known)}")
+    ints = {k: _get(table, k, int, where) for k in ("count", "seed", "horizon")}
+    for k in ("hold_steps", "settle_steps", "image_size"):
+        if k in table:
+            ints[k] = _get(table, k, int, where)
+    for k, v in ints.items():
+        low = 0 if k in ("seed", "settle_steps") else 1
+        if v < low:
+            raise RecipeError(f"{where} {k} = {v} is out of range (expected an integer >= {low})")
+    cameras = tuple(table.get("cameras", CAMERAS))
+    bad = [c for c in cameras if c not in CAMERAS]
+    if bad or not cameras:
+        raise RecipeError(f"{where} cameras = {list(cameras)}: expected a non-empty subset of "
+                          f"{list(CAMERAS)}")
+    return TaskSettings(cameras=cameras, **ints)
+
+
+def _range(raw: Any, where: str) -> tuple[float, float]:
+    ok = isinstance(raw, list) and len(raw) == 2 and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in raw)
+    if not ok or raw[0] > raw[1]:
+        raise RecipeError(f"{where} = {raw!r}: expected [low, high] numbers with low <= high")
+    return float(raw[0]), float(raw[1])
+
+
+def _get(table: Mapping[str, Any], key: str, kind: type, where: str) -> Any:
+    if key not in table:
+        raise RecipeError(f"{where}: missing key {key!r}")
+    value = table[key]
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+        raise RecipeError(f"{where}: {key} = {value!r} should be a {kind.__name__}")
+    return value
+
+
+def _table(raw: Mapping[str, Any], key: str, src: str, required: bool = True) -> dict[str, Any]:
+    if key not in raw:
+        if required:
+            raise RecipeError(f"{src}: missing table [{key}]")
+        return {}
+    if not isinstance(raw[key], dict):
+        raise RecipeError(f"{src}: {key} must be a table ([{key}])")
+    return dict(raw[key])
