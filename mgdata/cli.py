@@ -46,6 +46,7 @@ def _root(
 COMMAND_MODULES: tuple[str, ...] = (
     "mgdata.grasps.commands",
     "mgdata.record.commands",
+    "mgdata.ltl.commands",
 )
 
 
