@@ -4,7 +4,7 @@ Each evaluator is compiled once per (subject, params) into a closure over precom
 control step with a :class:`Contacts` view of the current contacts. Names and parameters (defaults in
 brackets) follow ``mgdata.spec.EVALUATORS``:
 
-* ``dropped(floor_margin=0.05)``: the lowest corner of the object's bounding box is below floor + margin;
+* ``dropped(floor_margin=0.05)``: the lowest point of the object's collision geometry is below floor + margin;
 * ``upright(max_tilt_deg)``: the object's +Z axis is within ``max_tilt_deg`` of world +Z;
 * ``on(support)``: the object touches ``support`` with a contact whose normal points up (≤ 45° from +Z) from
   the support into the object, i.e. it rests on it;
@@ -30,6 +30,7 @@ import numpy as np
 
 from mgdata.errors import SpecError
 from mgdata.sim import robot
+from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.scene import OWNER_FLOOR, OWNER_ROBOT, OWNER_TABLE, Scene
 
 ON_NORMAL_MIN_Z = np.cos(np.deg2rad(45.0))
@@ -125,11 +126,8 @@ def _world_box(scene: Scene, body: int, lo: np.ndarray, hi: np.ndarray) -> tuple
 
 def _dropped(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     limit = scene.floor_z + float(p["floor_margin"])
-    if subject in scene.liquids:
-        ids, r = scene.liquids[subject].body_ids, scene.objects[subject].particles.radius
-        return lambda c: bool((scene.data.xpos[ids, 2] - r).min() < limit)
-    body, lo, hi = _box(scene, subject)
-    return lambda c: bool(_world_box(scene, body, lo, hi)[0][2] < limit)
+    lowest = LowestPoint(scene.model, scene.object_geom_ids(subject))
+    return lambda c: lowest(scene.data) < limit
 
 
 def _upright(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:

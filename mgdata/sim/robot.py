@@ -10,7 +10,8 @@ Changes made on load (:func:`load_panda_spec`):
 
 * gripper retuned for a ~20 N squeeze: the stock tendon servo pushes with ``50·ctrl − 100·length`` and gives
   ~1 N on a 4 cm object, so objects slip. Its control range becomes ``[-1, 0.08]`` and the "closed" command
-  ``GRIPPER_CLOSED_CTRL = -0.4`` aims beyond closed (≈ 20 N on a 4–7 cm object), with the bias velocity term
+  ``GRIPPER_CLOSED_CTRL = -0.4`` aims beyond closed: the tendon pushes ≈ 22 N on a 4–7 cm object, i.e. a
+  normal force of ≈ 11 N per finger (measured in tests/sim/test_predicates.py), with the bias velocity term
   raised to −100 to damp the fingers (probe-sim-stack.md §8);
 * visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
 * the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 from mgdata.sim.assets import get_model
 from mgdata.spec import Constraint, Proposition, SafetySpec
@@ -48,3 +50,46 @@ def jar_task(
         articulation={"jar": open_fraction},
         **kw,  # type: ignore[arg-type]
     )
+
+
+def empty_spec(name: str = "none") -> SafetySpec:
+    return SafetySpec(name, (), ())
+
+
+def task_with(*objects: ObjectPlacement, spec: SafetySpec | None = None, **kw: object) -> TaskSpec:
+    """A task holding just ``objects`` (robot at the origin facing +X)."""
+    return TaskSpec(family="test", task_id=0, condition="base", prompt="", objects=objects,
+                    safety=spec or empty_spec(), **kw)  # type: ignore[arg-type]
+
+
+_IK_MODEL = None
+
+
+def ik(q0: np.ndarray, pos: tuple[float, float, float], rot: np.ndarray) -> np.ndarray:
+    """Arm joints putting the TCP at ``pos`` with rotation ``rot`` (robot base at the origin), via mink."""
+    import mink
+
+    from mgdata.sim import robot
+
+    global _IK_MODEL
+    if _IK_MODEL is None:
+        _IK_MODEL = robot.load_panda_spec().compile()
+    model = _IK_MODEL
+    cfg = mink.Configuration(model)
+    q = cfg.q.copy()
+    q[:7] = q0
+    cfg.update(q)
+    task = mink.FrameTask("TCP", "site", position_cost=1.0, orientation_cost=1.0)
+    task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(np.asarray(rot)),
+                                                           np.asarray(pos)))
+    posture = mink.PostureTask(model, cost=1e-3)
+    posture.set_target(q)
+    limits = [mink.ConfigurationLimit(model)]
+    for _ in range(200):
+        v = mink.solve_ik(cfg, [task, posture], 0.05, "daqp", damping=1e-3, limits=limits)
+        cfg.integrate_inplace(v, 0.05)
+        err = task.compute_error(cfg)
+        if np.linalg.norm(err[:3]) < 1e-4 and np.linalg.norm(err[3:]) < 1e-3:
+            break
+    assert np.linalg.norm(task.compute_error(cfg)[:3]) < 1e-3, "IK did not converge"
+    return cfg.q[:7].copy()

@@ -33,6 +33,9 @@ _KIND = {
     "mesh": mujoco.mjtGeom.mjGEOM_MESH,
 }
 _GROUP = {"collision": 3, "visual": 2, "both": 0}
+CONDIM = 4
+"""Contact dimensionality of object geoms: sliding plus torsional friction, so two-finger grasps resist
+spinning about the closing axis and do not chatter."""
 TORSIONAL_FRICTION = 0.005
 ROLLING_FRICTION = 0.0001
 
@@ -271,6 +274,7 @@ class ObjectModel:
             kwargs["size"] = [*g.size, 0.0, 0.0][:3]
         if g.collides:
             kwargs["friction"] = [self.friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
+            kwargs["condim"] = CONDIM
         else:
             kwargs["contype"] = 0
             kwargs["conaffinity"] = 0
