@@ -32,7 +32,7 @@ class VideoSettings:
 
     Attributes:
         codec: ``"h264"`` (libx264, default: fast to decode for training) or ``"av1"`` (libsvtav1).
-        crf: constant rate factor; ``None`` → 23 for H.264, 30 for AV1.
+        crf: constant rate factor; ``None`` → 23 for H.264, 30 for AV1 (resolved on construction).
         preset: encoder preset; ``None`` → ``"veryfast"`` (x264) or ``"12"`` (SVT-AV1).
         gop: keyframe interval in frames (random access in a training loader decodes up to ``gop`` frames).
         pix_fmt: stored pixel format.
@@ -54,22 +54,18 @@ class VideoSettings:
             raise DatasetError(f"video crf {self.crf} is out of range; expected 0..63")
         if self.gop < 1:
             raise DatasetError(f"video gop {self.gop} must be >= 1")
+        # resolve codec defaults so equal settings compare equal
+        object.__setattr__(self, "crf", _DEFAULT_CRF[self.codec] if self.crf is None else int(self.crf))
+        preset = _DEFAULT_PRESET[self.codec] if self.preset is None else str(self.preset)
+        object.__setattr__(self, "preset", preset)
 
     @property
     def encoder(self) -> str:
         return _ENCODERS[self.codec]
 
-    @property
-    def effective_crf(self) -> int:
-        return _DEFAULT_CRF[self.codec] if self.crf is None else self.crf
-
-    @property
-    def effective_preset(self) -> str:
-        return _DEFAULT_PRESET[self.codec] if self.preset is None else self.preset
-
     def options(self) -> dict[str, str]:
         """libav encoder options: deterministic (one thread) and concatenable (no B-frames)."""
-        opts = {"crf": str(self.effective_crf), "preset": self.effective_preset, "g": str(self.gop)}
+        opts = {"crf": str(self.crf), "preset": self.preset, "g": str(self.gop)}
         if self.codec == "h264":
             opts.update({"bf": "0", "threads": "1"})
         else:
@@ -88,8 +84,8 @@ class VideoSettings:
             "video.channels": 3,
             "has_audio": False,
             "video.g": self.gop,
-            "video.crf": self.effective_crf,
-            "video.preset": self.effective_preset,
+            "video.crf": self.crf,
+            "video.preset": self.preset,
         }
 
     @classmethod

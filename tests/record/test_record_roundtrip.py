@@ -1,0 +1,120 @@
+"""Write → read: identical numeric columns and metadata, faithful frames, exact stats, file rollover."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+from conftest import LENGTHS, SMALL, psnr, small_episodes, write_dataset, write_episodes
+
+from mgdata.record import layout
+from mgdata.record.reader import DatasetReader
+from mgdata.record.stats import image_stats, numeric_stats, rgb_histogram
+from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
+from mgdata.record.validate import validate_dataset
+from mgdata.record.writer import DatasetWriter
+
+
+def test_numeric_columns_and_metadata_round_trip(small_dataset: Path) -> None:
+    reader = DatasetReader(small_dataset)
+    episodes = small_episodes()
+    assert reader.num_episodes == len(LENGTHS) and reader.num_frames == sum(LENGTHS)
+    assert reader.schema == SMALL and reader.spec == SYNTHETIC_SPEC
+    start = 0
+    for i, ep in enumerate(episodes):
+        got = reader.episode(i)
+        np.testing.assert_array_equal(got.state, ep.state)
+        np.testing.assert_array_equal(got.action, ep.action)
+        np.testing.assert_array_equal(got.labels, ep.labels)
+        np.testing.assert_array_equal(got.dfa_state, ep.dfa_state)
+        np.testing.assert_array_equal(got.violated, ep.violated)
+        np.testing.assert_array_equal(got.engaged, ep.engaged)
+        np.testing.assert_array_equal(got.success, ep.success)
+        assert got.meta == ep.meta and got.task == ep.meta.prompt
+        assert got.frame_index.tolist() == list(range(ep.length))
+        assert got.global_index.tolist() == list(range(start, start + ep.length))
+        np.testing.assert_array_equal(got.timestamp, (np.arange(ep.length) / SMALL.fps).astype(np.float32))
+        start += ep.length
+    assert reader.episode(2).state.dtype == np.float32 and reader.episode(2).dfa_state.dtype == np.int16
+
+
+def test_frames_decode_close_to_the_recorded_ones(tmp_path: Path) -> None:
+    schema = synthetic_schema(cameras=("front", "wrist"), size=256)
+    episodes = [synthetic_episode(schema, n, seed=s) for s, n in [(1, 12), (2, 20)]]
+    reader = DatasetReader(write_dataset(tmp_path / "ds", episodes))
+    for i, ep in enumerate(episodes):
+        for cam in schema.cameras:
+            frames = reader.frames(i, cam)
+            assert frames.shape == (ep.length, 256, 256, 3) and frames.dtype == np.uint8
+            worst = min(psnr(frames[t], ep.images(t)[cam]) for t in range(ep.length))
+            assert worst >= 30.0, f"episode {i} {cam}: PSNR {worst:.1f} dB"
+
+
+def test_stats_are_exact(small_dataset: Path) -> None:
+    episodes = small_episodes()
+    stats = json.loads((small_dataset / layout.STATS_PATH).read_text())
+    state = np.concatenate([ep.state for ep in episodes])
+    for key, value in numeric_stats(state).items():
+        np.testing.assert_allclose(stats[layout.STATE][key], value, rtol=1e-12)
+    labels = np.concatenate([ep.labels for ep in episodes])
+    np.testing.assert_allclose(stats[layout.LABELS]["mean"], labels.mean(axis=0))
+    index = np.arange(sum(LENGTHS))
+    assert stats["index"]["max"] == [index.max()] and stats["index"]["count"] == [len(index)]
+    for cam in SMALL.cameras:
+        hist = sum(rgb_histogram(ep.images(t)[cam]) for ep in episodes for t in range(ep.length))
+        for key, value in image_stats(hist, sum(LENGTHS)).items():
+            np.testing.assert_allclose(stats[layout.video_key(cam)][key], value, rtol=1e-12)
+    reader = DatasetReader(small_dataset)
+    np.testing.assert_allclose(reader.record(1).stats[layout.ACTION]["std"], episodes[1].action.std(axis=0),
+                               rtol=1e-6)
+
+
+def test_layout_matches_lerobot_v30(small_dataset: Path) -> None:
+    info = json.loads((small_dataset / layout.INFO_PATH).read_text())
+    assert info["codebase_version"] == "v3.0" and info["total_tasks"] == len(LENGTHS)
+    assert info["splits"] == {"train": f"0:{len(LENGTHS)}"}
+    assert info["features"]["observation.images.front"]["info"]["video.codec"] == "h264"
+    assert info["features"]["safety.dfa_state"]["names"] == ["order", "intact"]
+    data = pq.read_table(small_dataset / "data/chunk-000/file-000.parquet")
+    assert data.schema.field("observation.state").type == pa.list_(pa.float32(), 8)
+    assert data.schema.field("safety.engaged").type == pa.bool_()
+    episodes = pq.read_table(small_dataset / "meta/episodes/chunk-000/file-000.parquet")
+    assert episodes.column("dataset_to_index").to_pylist()[-1] == sum(LENGTHS)
+    assert episodes.column("videos/observation.images.wrist/from_timestamp").to_pylist()[1] == LENGTHS[0] / 20
+    assert episodes.column("mgdata/family").to_pylist() == ["jar"] * len(LENGTHS)
+    tasks = pq.read_table(small_dataset / layout.TASKS_PATH)
+    assert b"pandas" in tasks.schema.metadata and tasks.column("task_index").to_pylist() == [0, 1, 2, 3]
+    assert not (small_dataset / layout.WORK_DIR).exists()
+
+
+def test_files_roll_over_by_size_duration_and_chunk(tmp_path: Path) -> None:
+    episodes = small_episodes()
+    root = write_dataset(tmp_path / "ds", episodes, data_file_mb=0, video_file_seconds=2.0, chunks_size=2)
+    data = sorted(p.relative_to(root).as_posix() for p in (root / "data").rglob("*.parquet"))
+    assert data == ["data/chunk-000/file-000.parquet", "data/chunk-000/file-001.parquet",
+                    "data/chunk-001/file-000.parquet", "data/chunk-001/file-001.parquet"]
+    # 40 frames per video file at most: 23 | 31 | 17 | 40 each start a new file
+    videos = sorted(p.relative_to(root / "videos").as_posix() for p in (root / "videos").rglob("*.mp4"))
+    assert len(videos) == 4 * len(SMALL.cameras)
+    assert "observation.images.left/chunk-001/file-001.mp4" in videos
+    reader = DatasetReader(root)
+    for i, ep in enumerate(episodes):
+        np.testing.assert_array_equal(reader.episode(i).state, ep.state)
+        assert reader.frames(i, "wrist").shape[0] == ep.length
+    assert validate_dataset(root).ok
+
+
+def test_resume_continues_appending(tmp_path: Path) -> None:
+    episodes = small_episodes()
+    root = write_dataset(tmp_path / "ds", episodes[:2])
+    with DatasetWriter.open(root, SMALL) as writer:
+        assert writer.num_episodes == 2 and [m.draw_index for m in writer.episodes_meta()] == [0, 1]
+        write_episodes(writer, episodes[2:])
+        writer.record_attempts(7)
+    reader = DatasetReader(root)
+    assert reader.num_episodes == 4 and reader.info["mgdata"]["attempts"] == 7
+    np.testing.assert_array_equal(reader.episode(3).labels, episodes[3].labels)
+    assert validate_dataset(root).ok
