@@ -102,14 +102,21 @@ class MotionConfig:
             _validate(getattr(self, section.name), section.name, "MotionConfig")
 
 
+_MAY_BE_ZERO = frozenset({"restarts", "restart_sigma", "posture_cost", "polish_radius", "damping",
+                          "limit_margin", "margin", "self_margin", "range", "reduce_steps", "shortcut_steps",
+                          "check_margin"})
+"""Numeric fields for which 0 means "off"; every other number must be positive."""
+
+
 def _validate(obj: Any, section: str, source: str) -> None:
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        if f.type in ("float", "int") and value < 0:
+        if f.type not in ("float", "int"):
+            continue
+        if f.name in _MAY_BE_ZERO and value < 0:
             raise RecipeError(f"{source}: [{section}] {f.name} = {value!r} must not be negative")
-    rate = getattr(obj, "rate", None)
-    if rate is not None and rate <= 0:
-        raise RecipeError(f"{source}: [{section}] rate = {rate!r} must be positive")
+        if f.name not in _MAY_BE_ZERO and not value > 0:
+            raise RecipeError(f"{source}: [{section}] {f.name} = {value!r} must be positive")
     solver = getattr(obj, "solver", None)
     if solver is not None and solver not in qpsolvers.available_solvers:
         raise RecipeError(f"{source}: [{section}] solver = {solver!r} is not an installed QP solver; "
