@@ -52,6 +52,11 @@ class IKResult:
     def converged(self, config: IKConfig) -> bool:
         return self.pos_err <= config.pos_tol and self.rot_err <= config.rot_tol
 
+    @property
+    def score(self) -> float:
+        """Residual for ranking unconverged attempts: metres plus 0.1 m per radian."""
+        return self.pos_err + 0.1 * self.rot_err
+
 
 class IKSolver:
     """mink IK for the TCP site of a Panda whose base sits at ``base`` in the world.
@@ -104,10 +109,10 @@ class IKSolver:
         cfg.update(self.clip(np.asarray(q_seed, dtype=np.float64)))
         tasks = [self._task, self._posture]
         pos_err, rot_err = self._residual(target_pos, target_rot)
-        best = (pos_err + rot_err * 0.1, cfg.q.copy(), pos_err, rot_err)
+        best = IKResult(cfg.q.copy(), pos_err, rot_err)
+        if best.converged(c):
+            return best
         for _ in range(c.max_iters):
-            if pos_err <= c.pos_tol and rot_err <= c.rot_tol:
-                break
             if pos_err < c.polish_radius:
                 # Near the target the posture pull would bias the fixed point; keep it as damping only.
                 self._posture.set_target(cfg.q)
@@ -117,10 +122,12 @@ class IKSolver:
                 break
             cfg.integrate_inplace(v, 1.0)
             pos_err, rot_err = self._residual(target_pos, target_rot)
-            score = pos_err + rot_err * 0.1
-            if score < best[0]:
-                best = (score, cfg.q.copy(), pos_err, rot_err)
-        return IKResult(best[1], best[2], best[3])
+            current = IKResult(cfg.q.copy(), pos_err, rot_err)
+            if current.converged(c):
+                return current
+            if current.score < best.score:
+                best = current
+        return best
 
     def _residual(self, target_pos: np.ndarray, target_rot: np.ndarray) -> tuple[float, float]:
         data = self._cfg.data
@@ -156,7 +163,7 @@ class IKSolver:
                 if veto is None:
                     return result.q
                 vetoes.append(veto)
-            elif best is None or result.pos_err + 0.1 * result.rot_err < best.pos_err + 0.1 * best.rot_err:
+            elif best is None or result.score < best.score:
                 best = result
         attempts = c.restarts + 1
         if vetoes:
