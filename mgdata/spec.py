@@ -120,13 +120,13 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
     _sig("upright", "the object's vertical axis is within a tilt of world +Z",
          Param("max_tilt_deg", float, None, 0.0, 180.0, "degrees")),
     _sig("on", "the object rests on a support",
-         Param("support", str, None, doc='"table" or an instance name')),
+         Param("support", str, None, doc='"table", an instance name or a prefix glob')),
     _sig("open", "the articulation's opening fraction is at least a threshold",
          Param("min_fraction", float, 0.5, 0.0, 1.0, "of the joint range")),
     _sig("closed", "the articulation's opening fraction is at most a threshold",
          Param("max_fraction", float, 0.05, 0.0, 1.0, "of the joint range")),
     _sig("touching", "the object is in contact with another",
-         Param("other", str, None, doc='"robot" or an instance name')),
+         Param("other", str, None, doc='"robot", an instance name or a prefix glob')),
     _sig("spilled", "more than a fraction of the particles are outside the container",
          Param("container", str, None, doc="the container's instance name"),
          Param("max_fraction", float, 0.15, 0.0, 1.0, "of the particles")),
@@ -282,7 +282,7 @@ def _param(p: Param, raw: Mapping[str, Any], where: str) -> float | str:
         return p.default
     value = raw[p.name]
     if p.kind is str:
-        if not isinstance(value, str) or not _IDENT.match(value):
+        if not isinstance(value, str) or not _SUBJECT.match(value):
             raise SpecError(f"{where}: expected {p.expected()}, got {value!r}")
         return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not p.low <= value <= p.high:

@@ -165,8 +165,10 @@ def _set(path: str, value: object) -> dict:
     ("propositions.jar_upright.params", {"max_tilt_deg": 30, "tilt": 1},
      "src: propositions.jar_upright.params.tilt: unknown parameter; upright takes: max_tilt_deg"),
     ("propositions.jar_on_support.params", {"support": 3},
-     "src: propositions.jar_on_support.params.support: expected a name (\"table\" or an instance name), got "
-     "3"),
+     "src: propositions.jar_on_support.params.support: expected a name (\"table\", an instance name or a "
+     "prefix glob), got 3"),
+    ("propositions.jar_on_support.params", {"support": "shelf top"},
+     "params.support: expected a name (\"table\", an instance name or a prefix glob), got 'shelf top'"),
     ("propositions.jar_closed.subjects", [],
      "src: propositions.jar_closed.subjects: expected a non-empty list"),
     ("propositions.jar_closed.subjects", ["*jar"],

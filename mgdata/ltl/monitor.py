@@ -143,8 +143,8 @@ class Monitor:
             raise SpecError(f"spec {mon.spec.name!r}: labels have shape {labels.shape}, expected (T, "
                             f"{len(mon.propositions)}) or (B, T, {len(mon.propositions)})")
         letters = mon.letters(labels)
-        batch = labels.reshape(-1, *labels.shape[-2:])
-        n_ep, n_t = batch.shape[0], batch.shape[1]
+        n_ep = labels.shape[0] if labels.ndim == 3 else 1
+        n_t = labels.shape[-2]
         states = np.empty((n_ep, n_t, len(mon.dfas)), dtype=np.int16)
         for c, dfa in enumerate(mon.dfas):
             lc = letters[c].reshape(n_ep, n_t)

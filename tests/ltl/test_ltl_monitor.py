@@ -114,3 +114,10 @@ def test_spec_problems_are_spec_errors() -> None:
 ])
 def test_verdict_is_the_papers_formula(t_viol: int | None, t_eng: int | None, safe: bool) -> None:
     assert verdict(t_viol, t_eng) is safe
+
+
+def test_empty_episodes_replay_to_empty_arrays() -> None:
+    mon = Monitor(JAR)
+    for shape, out in (((0, 4), (0, 3)), ((5, 0, 4), (5, 0, 3))):
+        states, violated = mon.run(np.zeros(shape, dtype=bool))
+        assert states.shape == out and violated.shape == out
