@@ -36,6 +36,7 @@ from mgdata.record.episodes import (
     record_to_table,
     records_from_table,
     stats_features,
+    table_schema,
 )
 from mgdata.record.metafiles import (
     build_info,
@@ -84,9 +85,13 @@ class DatasetWriter:
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
                video_file_seconds: float = layout.VIDEO_FILE_SECONDS) -> DatasetWriter:
-        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``."""
+        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``.
+
+        A folder holding only the work area of a ``create`` that was killed before its first commit counts
+        as empty.
+        """
         root = Path(root)
-        if root.exists() and any(root.iterdir()):
+        if root.exists() and any(p.name != layout.WORK_DIR for p in root.iterdir()):
             raise DatasetError(f"{root}: already exists and is not empty (use DatasetWriter.open to resume)")
         if spec is not None:
             if spec.proposition_names != schema.propositions:
@@ -99,12 +104,20 @@ class DatasetWriter:
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds)
         root.mkdir(parents=True, exist_ok=True)
-        writer = cls(root, info, WriterLock(root))
-        if writer.schema != schema:
-            raise DatasetError(f"schema does not survive info.json: {schema} vs {writer.schema}")
-        tx = Transaction(root)
-        tx.path(layout.INFO_PATH).write_text(dump_json(info))
-        tx.commit()
+        lock = WriterLock(root)
+        try:
+            if recover(root):  # a killed create had committed after all
+                raise DatasetError(f"{root}: already holds a dataset (use DatasetWriter.open to resume)")
+            shutil.rmtree(work_dir(root) / "staging", ignore_errors=True)
+            writer = cls(root, info, lock)
+            if writer.schema != schema:
+                raise DatasetError(f"schema does not survive info.json: {schema} vs {writer.schema}")
+            tx = Transaction(root)
+            tx.path(layout.INFO_PATH).write_text(dump_json(info))
+            tx.commit()
+        except BaseException:
+            lock.release()
+            raise
         return writer
 
     @classmethod
@@ -142,7 +155,8 @@ class DatasetWriter:
             raise DatasetError(f"{self.root}: episodes table has {len(self._records)} rows, info.json says "
                                f"{total}")
         if self._records:
-            self._episodes_table = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
+            last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
+            self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
         for rel in sorted({layout.data_path(r.data) for r in self._records}):
             table = read_parquet(self.root / rel)
             for col in layout.all_columns(self.schema):
