@@ -37,6 +37,10 @@ class SceneError(MgdataError):
     """A scene cannot be built (overlapping initial poses, missing bodies, bad camera names …)."""
 
 
+class SimulationError(MgdataError):
+    """The physics diverged (NaN/Inf or huge accelerations); the episode in progress cannot continue."""
+
+
 class GraspDBError(MgdataError):
     """A grasp database file is malformed or names an unknown object."""
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mgdata.errors import MgdataError
+from mgdata.errors import MgdataError, SimulationError
 from mgdata.sim import robot
 from mgdata.sim.scene import Scene
 
@@ -53,12 +53,20 @@ class JointController:
     def step(self) -> None:
         """Advance one control period with the current controls.
 
+        Raises:
+            SimulationError: the physics diverged (MuJoCo then silently resets the state, so this is fatal).
+
         Ends with ``mj_forward`` so positions and contacts describe the new state (as after
         ``Scene.restore``); that call does not change the trajectory.
         """
         m, d = self.scene.model, self.scene.data
+        diverged = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
         for _ in range(self._substeps):
             mujoco.mj_step(m, d)
+        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != diverged:
+            # MuJoCo has already reset the state to qpos0; continuing would record a teleported world.
+            raise SimulationError(f"the physics diverged during the control step ending at t = {d.time:.3f} s "
+                                  "(NaN/Inf accelerations); the episode must be discarded")
         self.scene.after_control_step()
         mujoco.mj_forward(m, d)
 

@@ -48,9 +48,12 @@ class Labeller:
             checks = tuple(compile_check(scene, prop.evaluator, s, prop.params, where) for s in subjects)
             self._checks.append((prop.quantifier == "all", checks))
 
-    def labels(self) -> np.ndarray:
-        """Truth of every proposition on the scene's current state, bool (n_props,)."""
-        contacts = Contacts(self.scene)
+    def labels(self, contacts: Contacts | None = None) -> np.ndarray:
+        """Truth of every proposition on the scene's current state, bool (n_props,).
+
+        ``contacts`` may pass a :class:`Contacts` view of the current state already built by the caller.
+        """
+        contacts = contacts or Contacts(self.scene)
         out = np.empty(len(self._checks), dtype=bool)
         for i, (universal, checks) in enumerate(self._checks):
             if universal:

@@ -9,10 +9,12 @@ points at another copy. Element names are kept exactly as in ``panda.xml``: join
 Changes made on load (:func:`load_panda_spec`):
 
 * gripper retuned for a ~20 N squeeze: the stock tendon servo pushes with ``50·ctrl − 100·length`` and gives
-  ~1 N on a 4 cm object, so objects slip. Its control range becomes ``[-1, 0.08]`` and the "closed" command
+  ~1 N on a 4 cm object, so objects slip. The "closed" command
   ``GRIPPER_CLOSED_CTRL = -0.4`` aims beyond closed: the tendon pushes ≈ 22 N on a 4–7 cm object, i.e. a
   normal force of ≈ 11 N per finger (measured in tests/sim/test_predicates.py), with the bias velocity term
-  raised to −100 to damp the fingers (probe-sim-stack.md §8);
+  raised to −100 to damp the fingers (probe-sim-stack.md §8). That damping alone would make opening take
+  seconds, so "open" (``GRIPPER_OPEN_CTRL = 0.25``) likewise aims beyond fully open; the control range is
+  ``[-1, 1]``;
 * visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
 * the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.
 
@@ -53,8 +55,9 @@ VMAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
 AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 """Joint acceleration limits (rad/s²), Panda datasheet."""
 
-GRIPPER_OPEN_CTRL = 0.08
-"""Gripper actuator control for fully open (fingers at 0.04 m each)."""
+GRIPPER_OPEN_CTRL = 0.25
+"""Gripper actuator control for "open": a target beyond fully open (fingers stop at their 0.04 m limits), so
+opening takes ~0.3 s instead of the stock servo's 1 s time constant."""
 GRIPPER_CLOSED_CTRL = -0.4
 """Gripper actuator control for "closed": a target beyond closed that squeezes ~20 N."""
 GRIPPER_MAX_OPENING = 0.08
@@ -124,7 +127,7 @@ def load_panda_spec(*, decimate_visuals: bool = True) -> mujoco.MjSpec:
             if getattr(spec, kind)(name) is None:
                 raise RobotModelError(f"Panda MJCF {xml} has no {kind} named {name!r}")
     grip = spec.actuator(GRIPPER_ACTUATOR)
-    grip.ctrlrange = [-1.0, GRIPPER_OPEN_CTRL]
+    grip.ctrlrange = [-1.0, 1.0]
     bias = list(grip.biasprm)
     bias[2] = -100.0
     grip.biasprm = bias
