@@ -1,26 +1,21 @@
-"""The recorder on a real jar scene: frame contents, monitor consistency, engagement-gated verdict, sink use."""
+"""The recorder on a real jar scene: frames, monitor consistency, engagement-gated verdict, sink use."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 import numpy as np
 import pytest
+from sim.sim_tasks import ik, jar_task
 
-sys.path.insert(0, str(Path(__file__).parent / "sim"))
-from sim_tasks import ik, jar_task  # noqa: E402
-
-from mgdata.errors import MgdataError  # noqa: E402
-from mgdata.ltl import Monitor  # noqa: E402
-from mgdata.record.episode import MemorySink  # noqa: E402
-from mgdata.record.recorder import Recorder, schema_for  # noqa: E402
-from mgdata.sim import robot  # noqa: E402
-from mgdata.sim.controller import JointController  # noqa: E402
-from mgdata.sim.labelling import Labeller  # noqa: E402
-from mgdata.sim.renderer import CameraRig  # noqa: E402
-from mgdata.sim.scene import Scene, build_scene  # noqa: E402
+import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
+from mgdata.errors import MgdataError
+from mgdata.ltl import Monitor
+from mgdata.record.episode import MemorySink
+from mgdata.record.recorder import Recorder, schema_for
+from mgdata.sim import robot
+from mgdata.sim.controller import JointController
+from mgdata.sim.labelling import Labeller
+from mgdata.sim.renderer import CameraRig
+from mgdata.sim.scene import Scene, build_scene
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 

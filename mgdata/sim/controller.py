@@ -65,7 +65,7 @@ class JointController:
             mujoco.mj_step(m, d)
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != diverged:
             # MuJoCo has already reset the state to qpos0; continuing would record a teleported world.
-            raise SimulationError(f"the physics diverged during the control step ending at t = {d.time:.3f} s "
+            raise SimulationError(f"the physics diverged in the control step ending at t = {d.time:.3f} s "
                                   "(NaN/Inf accelerations); the episode must be discarded")
         self.scene.after_control_step()
         mujoco.mj_forward(m, d)
