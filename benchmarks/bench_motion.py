@@ -18,11 +18,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "motion"))
-import mgdata  # noqa: E402, F401  (sets MUJOCO_GL before mujoco is imported)
-from motion_scenes import down_pose, home_data, scene  # noqa: E402
+from motion_scenes import down_pose, home_data, scene  # imports mgdata first (MUJOCO_GL)
 
-from mgdata.motion import MotionConfig, MotionFailure, MotionPlanner, load_motion_config  # noqa: E402
-from mgdata.sim.robot import HOME_Q  # noqa: E402
+from mgdata.motion import MotionConfig, MotionFailure, MotionPlanner, load_motion_config
+from mgdata.sim.robot import HOME_Q
 
 
 def timed(fn: Callable[[int], object], n: int) -> tuple[np.ndarray, int, list[object]]:

@@ -82,7 +82,8 @@ class CollisionChecker:
         self._threshold = np.zeros((model.ngeom, model.ngeom))
         self._margin = 0.0
         self._attached: Attachment | None = None
-        self._held_adr = -1
+        self._carried: list[tuple[int, np.ndarray]] = []  # (free-joint qpos address, held_T_body)
+        self._synced_qpos = self.data.qpos.copy()
         self.n_checks = 0
         self.configure(AllowedContacts(), None, 0.0)
 
@@ -108,6 +109,7 @@ class CollisionChecker:
 
     def sync(self, data: mujoco.MjData) -> None:
         """Copy the live world state (all joint positions, mocap poses) into the checker."""
+        self._synced_qpos = data.qpos.copy()
         self.data.qpos[:] = data.qpos
         self.data.mocap_pos[:] = data.mocap_pos
         self.data.mocap_quat[:] = data.mocap_quat
@@ -115,8 +117,9 @@ class CollisionChecker:
     def configure(self, allowed: AllowedContacts, attached: Attachment | None, margin: float) -> None:
         """Set the rules of the next queries: allowed pairs, held object, and the world margin (m).
 
-        Also forgets the pairs relaxed by :meth:`relax_pairs_at`.
+        Also forgets the pairs relaxed by :meth:`relax_pairs_at` and puts every body back at its synced pose.
         """
+        self.data.qpos[:] = self._synced_qpos
         n = self.model.ngeom
         self._allowed = np.zeros((n, n), dtype=bool)
         for a, b in allowed.pairs:
@@ -127,18 +130,28 @@ class CollisionChecker:
         self._exact = np.zeros((n, n), dtype=bool)
         self._kind = self._kind0.copy()
         self._attached = attached
-        self._held_adr = -1
+        self._carried = []
         if attached is not None:
-            body = self._body_id(attached.body, "Attachment")
-            jnt = self.model.body_jntadr[body]
-            if (self.model.body_parentid[body] != 0 or jnt < 0
-                    or self.model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE):
-                raise SceneError(f"Attachment body {attached.body!r} must be a child of the world with a "
-                                 "free joint (a loose object)")
-            self._held_adr = int(self.model.jnt_qposadr[jnt])
-            self._kind[self._subtree_geoms(attached.body, "Attachment")] = HELD
+            held = self._free_qpos_adr(attached.body)
+            world_T_held = _free_pose(self.data.qpos, held)
+            self._carried.append((held, np.eye(4)))
+            for rider in attached.riders:
+                adr = self._free_qpos_adr(rider)
+                self._carried.append((adr, np.linalg.solve(world_T_held, _free_pose(self.data.qpos, adr))))
+            for name in (attached.body, *attached.riders):
+                self._kind[self._subtree_geoms(name, "Attachment")] = HELD
         self._remap_masks()
         self.set_margin(margin)
+
+    def _free_qpos_adr(self, name: str) -> int:
+        """qpos address of the free joint of loose body ``name``."""
+        body = self._body_id(name, "Attachment")
+        jnt = self.model.body_jntadr[body]
+        if (self.model.body_parentid[body] != 0 or jnt < 0
+                or self.model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE):
+            raise SceneError(f"Attachment body {name!r} must be a child of the world with a free joint "
+                             "(a loose object)")
+        return int(self.model.jnt_qposadr[jnt])
 
     def _remap_masks(self) -> None:
         """Contact bitmasks under which world geoms never collide with each other.
@@ -195,10 +208,11 @@ class CollisionChecker:
             world_T_tcp = np.eye(4)
             world_T_tcp[:3, :3] = d.site_xmat[self._tcp].reshape(3, 3)
             world_T_tcp[:3, 3] = d.site_xpos[self._tcp]
-            T = world_T_tcp @ self._attached.tcp_T_body
-            adr = self._held_adr
-            d.qpos[adr:adr + 3] = T[:3, 3]
-            mujoco.mju_mat2Quat(d.qpos[adr + 3:adr + 7], T[:3, :3].ravel())
+            world_T_held = world_T_tcp @ self._attached.tcp_T_body
+            for adr, held_T_body in self._carried:
+                T = world_T_held @ held_T_body
+                d.qpos[adr:adr + 3] = T[:3, 3]
+                mujoco.mju_mat2Quat(d.qpos[adr + 3:adr + 7], T[:3, :3].ravel())
             mujoco.mj_kinematics(m, d)
         mujoco.mj_collision(m, d)
         self.n_checks += 1
@@ -261,3 +275,13 @@ class CollisionChecker:
         T[:3, :3] = d.site_xmat[self._tcp].reshape(3, 3)
         T[:3, 3] = d.site_xpos[self._tcp]
         return T
+
+
+def _free_pose(qpos: np.ndarray, adr: int) -> np.ndarray:
+    """World pose (4x4) of a free body from its joint's qpos (position, then quaternion w, x, y, z)."""
+    T = np.eye(4)
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, qpos[adr + 3:adr + 7])
+    T[:3, :3] = mat.reshape(3, 3)
+    T[:3, 3] = qpos[adr:adr + 3]
+    return T

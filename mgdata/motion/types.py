@@ -173,16 +173,24 @@ NO_CONTACTS = AllowedContacts()
 class Attachment:
     """A held object moving rigidly with the TCP while paths are checked.
 
-    Its contacts with the gripper (palm, fingers) and among its own parts are ignored; its contacts with the
-    rest of the robot and the world are checked like the robot's (inflated by the planning margin).
+    Its contacts with the gripper (palm, fingers), among its own parts and with its riders are ignored; its
+    contacts with the rest of the robot and the world are checked like the robot's (inflated by the planning
+    margin).
 
     Attributes:
         body: name of the object's root body; it must hang from a free joint.
         tcp_T_body: 4x4 pose of that body in the TCP frame (measured from the live state at grasp time).
+        riders: other loose bodies carried along with it (the food in a jar); each keeps the pose relative
+            to ``body`` that it has in the synced state.
+
+    Example::
+
+        Attachment("jar", (tcp_pose.inverse() @ jar_pose).matrix(), riders=("food",))
     """
 
     body: str
     tcp_T_body: np.ndarray = field(default_factory=lambda: np.eye(4))
+    riders: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         T = np.array(self.tcp_T_body, dtype=np.float64)
@@ -190,3 +198,4 @@ class Attachment:
             raise ValueError(f"Attachment.tcp_T_body must be 4x4, got {T.shape}")
         T.setflags(write=False)
         object.__setattr__(self, "tcp_T_body", T)
+        object.__setattr__(self, "riders", tuple(self.riders))

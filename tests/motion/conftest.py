@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
+
+# isort: split
 import mujoco
 import pytest
 from motion_scenes import home_data, scene

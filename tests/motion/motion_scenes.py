@@ -6,6 +6,9 @@ builder. Frames: robot base at the origin, table top at z = 0, the wall across y
 
 from __future__ import annotations
 
+import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
+
+# isort: split
 import mujoco
 import numpy as np
 

@@ -130,6 +130,36 @@ def test_a_held_object_may_touch_the_gripper_but_nothing_else(wall_model: mujoco
     assert "box <-> table" in checker.explain(HOME_Q)
 
 
+def test_riders_move_with_the_held_object() -> None:
+    """A tray lifted with a pebble on it: without the pebble as a rider the tray would sweep through it."""
+    spec = load_panda_spec()
+    table = spec.worldbody.add_body(name="table", pos=[0.6, 0.0, -0.02])
+    table.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.4, 0.6, 0.02])
+    for name, z, size in (("tray", 0.01, [0.05, 0.05, 0.01]), ("pebble", 0.03, [0.01, 0.01, 0.01])):
+        body = spec.worldbody.add_body(name=name, pos=[0.5, 0.0, z])
+        body.add_freejoint()
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=size)
+    model = spec.compile()
+    mp = MotionPlanner(model)
+    data = home_data(model)
+    mp.sync(data)
+    rng = np.random.default_rng(0)
+    q_grip = mp.ik(down_pose(0.5, 0.0, 0.01), HOME_Q, rng)  # TCP at the tray's centre
+    q_lift = mp.ik(down_pose(0.5, 0.0, 0.11), q_grip, rng)
+    world_T_tray = np.eye(4)
+    world_T_tray[:3, 3] = [0.5, 0.0, 0.01]
+    tcp_T_tray = np.linalg.solve(mp.fk(q_grip).matrix(), world_T_tray)
+    lifting = np.stack([q_grip, q_lift])
+    allowed = AllowedContacts(((HAND_BODY, "tray"), (HAND_BODY, "pebble"), ("tray", "table")))
+    mp.checker.configure(allowed, Attachment("tray", tcp_T_tray), 0.0)
+    hit = mp.checker.first_invalid(lifting, 0.01)
+    assert hit is not None and "tray <-> pebble" in mp.checker.explain(hit[1])
+    mp.checker.configure(allowed, Attachment("tray", tcp_T_tray, riders=("pebble",)), 0.0)
+    assert mp.checker.first_invalid(lifting, 0.01) is None
+    pebble = mp.checker.data.xpos[model.body("pebble").id]
+    np.testing.assert_allclose(pebble, [0.5, 0.0, 0.13], atol=2e-3)  # rode up 10 cm with the tray
+
+
 def test_bad_names_are_scene_errors(planner: MotionPlanner) -> None:
     with pytest.raises(SceneError, match=r"AllowedContacts names body 'jarr'.*'box'"):
         planner.checker.configure(AllowedContacts((("hand", "jarr"),)), None, 0.0)
