@@ -97,7 +97,7 @@ def main() -> None:
     row("IK, targets anywhere in reach (seed HOME)", ms, fails)
     ms, fails, _ = timed(lambda i: mp.ik(near[i], HOME_Q, np.random.default_rng(i), collision_free=True),
                          len(near))
-    row("IK + collision check (table, wall)", ms, fails)
+    row("IK + collision check (misses: targets in table or wall)", ms, fails)
 
     bench_free("free: over a 30 cm wall (RRTConnect)", model, config, n)
     bench_free("free: over the wall, 20 boxes on the table", clutter_scene(20, 1), config, n)
