@@ -20,9 +20,9 @@ WRIST = "wrist"
 CAMERA_NAMES: tuple[str, ...] = (*THIRD_PERSON, WRIST)
 """All cameras, in the order observations list them."""
 
-FOVY_DEG = 55.0
+FOVY_DEG = 58.0
 WRIST_FOVY_DEG = 75.0
-WORKSPACE_OFFSET = (0.45, 0.0, 0.15)
+WORKSPACE_OFFSET = (0.45, 0.0, 0.22)
 """The point the third-person cameras look at, in the robot base frame (fwd, left, up)."""
 _EYES = {
     "front": (1.65, 0.0, 0.9),
@@ -30,8 +30,8 @@ _EYES = {
     "right": (0.2, -1.0, 0.9),
     "shoulder": (-0.43, 0.55, 0.9),
 }
-_WRIST_EYE = (0.065, 0.0, 0.035)
-_WRIST_TARGET = (0.0, 0.0, 0.20)
+_WRIST_EYE = (0.08, 0.0, 0.0)
+_WRIST_TARGET = (0.0, 0.0, 0.22)
 """Wrist camera eye and look-at point in the hand frame (hand +Z: approach axis; fingers open along Y)."""
 
 

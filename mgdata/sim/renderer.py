@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from types import TracebackType
 
 import mujoco
@@ -35,6 +35,20 @@ def _check_gl_backend() -> None:
             "MuJoCo was imported before a headless GL backend was chosen, and there is no display: "
             "import mgdata before mujoco, or set MUJOCO_GL=egl (or osmesa) in the environment"
         )
+
+
+def contact_sheet(images: Mapping[str, np.ndarray], *, labels: bool = True) -> np.ndarray:
+    """The images side by side (in the mapping's order), each captioned with its camera name."""
+    import cv2
+
+    tiles = []
+    for name, img in images.items():
+        tile = np.array(img, dtype=np.uint8, copy=True, order="C")
+        if labels:
+            cv2.putText(tile, name, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
+            cv2.putText(tile, name, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+        tiles.append(tile)
+    return np.concatenate(tiles, axis=1)
 
 
 class CameraRig:
@@ -63,7 +77,6 @@ class CameraRig:
         flags = self._renderer.scene.flags
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
         flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
-        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
 
     def render(self) -> dict[str, np.ndarray]:
         """One RGB image (size, size, 3) uint8 per camera, of the scene's current ``data``."""

@@ -89,6 +89,9 @@ def _add_environment(spec: mujoco.MjSpec, size: int) -> None:
     vis.headlight.ambient = [0.35, 0.35, 0.35]
     vis.headlight.diffuse = [0.45, 0.45, 0.45]
     vis.headlight.specular = [0.0, 0.0, 0.0]
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.78, 0.82, 0.86],
+                     rgb2=[0.45, 0.50, 0.56], width=64, height=64)
     spec.add_texture(name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.32, 0.34, 0.36],
                      rgb2=[0.26, 0.28, 0.30], width=256, height=256)

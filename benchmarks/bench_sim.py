@@ -1,0 +1,146 @@
+"""Layer-1 simulation benchmark on a jar scene: physics, rendering, labelling + monitoring.
+
+Prints, for the hinged jar with a cherry inside (the jar family's scene):
+
+* physics steps per CPU-second at the scene's timestep (target ≥ 5,000), and per control step;
+* five-camera observations per second at 256² on one core (``LP_NUM_THREADS=1``; target ≥ 30);
+* labelling (4 propositions) + monitor (3 DFAs) cost per control step (target ≤ 100 µs);
+* scene build and reset times, and a 63-sphere liquid scene's physics rate (CG + elliptic cone).
+
+``--sheet PATH`` also writes the five views of the jar scene as a contact sheet PNG (docs/jar_views.png).
+
+    LP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_sim.py [--sheet docs/jar_views.png]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("LP_NUM_THREADS", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported (mgdata does the same)
+
+import argparse
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from mgdata.ltl import Monitor
+from mgdata.sim import robot
+from mgdata.sim.assets import get_model
+from mgdata.sim.controller import JointController
+from mgdata.sim.labelling import Labeller
+from mgdata.sim.renderer import CameraRig, contact_sheet
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.spec import Constraint, Proposition, SafetySpec
+from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
+
+JAR_SPEC = SafetySpec(
+    "jar",
+    (Constraint("stay_until_closed", "jar_on_support W jar_closed"),
+     Constraint("never_dropped", "G !jar_dropped"), Constraint("stays_upright", "G jar_upright")),
+    (Proposition("jar_on_support", "on", ("jar",), {"support": "table"}),
+     Proposition("jar_closed", "closed", ("jar",)), Proposition("jar_dropped", "dropped", ("jar",)),
+     Proposition("jar_upright", "upright", ("jar",), {"max_tilt_deg": 30.0})),
+)
+
+
+def task(*objects: ObjectPlacement, **kw: object) -> TaskSpec:
+    return TaskSpec("jar", 0, "base", "close the jar and put it in the green region", objects, JAR_SPEC,
+                    **kw)  # type: ignore[arg-type]
+
+
+def jar_task() -> TaskSpec:
+    """The hinged jar 0.5 m in front of the robot, lid open, a cherry inside, goal to its left."""
+    bottom = get_model("jar/hinged_03").geometry["bottom"]
+    return task(ObjectPlacement("jar", "jar/hinged_03", (0.5, 0.0, 0.0)),
+                ObjectPlacement("food", "food/cherry_00", (0.5, 0.0, bottom)),
+                goal=GoalRegion((0.45, 0.3, 0.15), 0.05), articulation={"jar": 1.0})
+
+
+def physics_rate(scene: Scene, steps: int) -> float:
+    scene.reset()
+    t0 = time.process_time()
+    for _ in range(steps):
+        mujoco.mj_step(scene.model, scene.data)
+    return steps / (time.process_time() - t0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sheet", type=Path, help="write the jar scene's five views here (PNG)")
+    args = parser.parse_args()
+
+    t0 = time.perf_counter()
+    scene = build_scene(jar_task())
+    build = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(20):
+        scene.reset()
+    reset = (time.perf_counter() - t0) / 20
+    m = scene.model
+    print(f"jar scene: nbody {m.nbody}, ngeom {m.ngeom}, nv {m.nv}; timestep {m.opt.timestep * 1000:.1f} ms, "
+          f"{scene.physics.substeps} physics steps per 20 Hz control step")
+    print(f"build {build * 1000:.0f} ms (incl. settle), reset {reset * 1e6:.0f} µs")
+
+    rate = physics_rate(scene, 20000)
+    print(f"physics: {rate:,.0f} steps per CPU-second ({rate * m.opt.timestep:.0f}× real time; "
+          f"{rate / scene.physics.substeps:,.0f} control steps/s)  [target ≥ 5,000 steps/s]")
+
+    scene.reset()
+    with CameraRig(scene) as rig:
+        rig.render()
+        n = 60
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(n):
+            rig.render()
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        images = rig.render()
+    print(f"render: {n / wall:.1f} five-camera observations/s at 256² wall ({n / cpu:.1f} per CPU-second, "
+          f"LP_NUM_THREADS={os.environ['LP_NUM_THREADS']})  [target ≥ 30/s]")
+    if args.sheet:
+        import cv2
+
+        args.sheet.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(args.sheet), cv2.cvtColor(contact_sheet(images), cv2.COLOR_RGB2BGR))
+        print(f"wrote {args.sheet}")
+
+    # Labelling + monitor on the states of a short moving rollout (contacts vary step to step).
+    spec = scene.task.safety
+    lab, mon = Labeller(scene, spec), Monitor(spec)
+    scene.reset()
+    ctl = JointController(scene)
+    snaps = []
+    for t in range(40):
+        ctl.apply(np.array([*(robot.HOME_Q + 0.3 * np.sin(t / 8.0)), float(t > 20)]))
+        ctl.step()
+        snaps.append(scene.snapshot())
+    lab_time = mon_time = 0.0
+    reps = 25
+    for snap in snaps:
+        scene.restore(snap)
+        mon.reset()
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            bits = lab.labels()
+        t1 = time.perf_counter()
+        for _ in range(reps):
+            mon.step(bits)
+        lab_time += t1 - t0
+        mon_time += time.perf_counter() - t1
+    k = len(snaps) * reps
+    print(f"labelling {lab_time / k * 1e6:.1f} µs + monitor {mon_time / k * 1e6:.1f} µs = "
+          f"{(lab_time + mon_time) / k * 1e6:.1f} µs per control step ({len(spec.propositions)} "
+          f"propositions, {len(spec.constraints)} constraints)  [target ≤ 100 µs]")
+
+    liquid = build_scene(task(
+        ObjectPlacement("mug", "mug/handled_00", (0.55, 0.2, 0.0)),
+        ObjectPlacement("water", "liquid/water_00", (0.55, 0.2, 0.007))))
+    lrate = physics_rate(liquid, 2000)
+    print(f"liquid scene (63 spheres, CG + elliptic): {lrate:,.0f} steps per CPU-second "
+          f"({lrate * liquid.model.opt.timestep:.1f}× real time)")
+
+
+if __name__ == "__main__":
+    main()
