@@ -43,7 +43,7 @@ def build_cabinet(name: str, seed: int, rng: np.random.Generator) -> ObjectModel
     front_x = hx
     drawer_geoms = (
         *box,
-        Geom("drawer_front", "box", (p, hy - 0.002, dh / 2 + 0.002), pos=(dhx + p, 0.0, dh / 2)),
+        Geom("drawer_front", "box", (p, hy - PANEL - 0.002, dh / 2), pos=(dhx + p, 0.0, dh / 2)),
         Geom("handle", "capsule", (bar_r, bar_len / 2), pos=(dhx + PANEL + standoff, 0.0, dh / 2),
              quat=(0.7071068, 0.7071068, 0.0, 0.0), rgba=METAL),
         Geom("handle_post_l", "box", (standoff / 2, 0.005, 0.005),
