@@ -19,9 +19,16 @@ import numpy as np
 from mgdata.errors import SpecError
 from mgdata.sim.predicates import Check, Contacts, compile_check, resolve
 from mgdata.sim.scene import Scene
-from mgdata.spec import SafetySpec
+from mgdata.spec import Proposition, SafetySpec, proposition_from_mapping
 
-QUANTIFIERS = ("all", "any")
+
+def _validated(prop: Proposition, where: str) -> Proposition:
+    """The proposition checked against ``mgdata.spec.EVALUATORS`` (specs built in code skip the loader)."""
+    if not prop.subjects:
+        raise SpecError(f"{where}: no subjects (an empty subject set has no truth value)")
+    table = {"evaluator": prop.evaluator, "subjects": list(prop.subjects), "params": dict(prop.params),
+             "quantifier": prop.quantifier}
+    return proposition_from_mapping(prop.name, table, where)
 
 
 class Labeller:
@@ -38,14 +45,11 @@ class Labeller:
         if len(set(self.names)) != len(self.names):
             raise SpecError(f"spec {spec.name!r} declares a proposition name twice: {', '.join(self.names)}")
         self._checks: list[tuple[bool, tuple[Check, ...]]] = []
-        for prop in spec.propositions:
-            where = f"spec {spec.name!r}, proposition {prop.name!r}"
-            if prop.quantifier not in QUANTIFIERS:
-                raise SpecError(f"{where}: quantifier {prop.quantifier!r}; expected 'all' or 'any'")
-            if not prop.subjects:
-                raise SpecError(f"{where}: no subjects (an empty subject set has no truth value)")
+        for raw in spec.propositions:
+            where = f"spec {spec.name!r}, proposition {raw.name!r}"
+            prop = _validated(raw, where)
             subjects = [n for pattern in prop.subjects for n in resolve(scene, pattern, f"{where}: subject")]
-            checks = tuple(compile_check(scene, prop.evaluator, s, prop.params, where) for s in subjects)
+            checks = tuple(compile_check(scene, prop.evaluator, s, prop.params) for s in subjects)
             self._checks.append((prop.quantifier == "all", checks))
 
     def labels(self, contacts: Contacts | None = None) -> np.ndarray:

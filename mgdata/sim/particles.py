@@ -29,6 +29,9 @@ WIPE_MARGIN = 0.005
 FILL_CLEARANCE = 0.0015
 DUST_THICKNESS = 0.0008
 WIPER_CATEGORY = "sponge"
+LIQUID_SOLREF = (0.004, 1.0)
+"""Contact time constant of liquid spheres: at MuJoCo's default 0.02 s a 10-sphere column squeezes the
+bottom spheres into each other by a quarter of their diameter; 0.004 s (2 timesteps) keeps them apart."""
 
 
 def particle_models(models: Mapping[str, ObjectModel]) -> dict[str, ObjectModel]:
@@ -107,7 +110,7 @@ def add_particles(spec: mujoco.MjSpec, task: TaskSpec, models: Mapping[str, Obje
                 body.add_freejoint(name=f"{name}/p{i:03d}/free")
                 body.add_geom(name=f"{name}/p{i:03d}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
                               size=[p.radius, 0.0, 0.0], mass=p.mass, rgba=list(model.rgba),
-                              friction=[model.friction, 0.0, 0.0], group=0)
+                              friction=[model.friction, 0.0, 0.0], group=0, solref=list(LIQUID_SOLREF))
         else:
             assert p.layout is not None
             xy = p.layout @ _yaw_rot(placement.yaw)[:2, :2].T + np.asarray(placement.pos[:2])

@@ -1,8 +1,8 @@
 """The predicate registry: evaluators of atomic propositions over a scene's MuJoCo state.
 
 Each evaluator is compiled once per (subject, params) into a closure over precomputed ids, then called every
-control step with a :class:`Contacts` view of the current contacts. Names and parameters (defaults in
-brackets) follow ``mgdata.spec.EVALUATORS``:
+control step with a :class:`Contacts` view of the current contacts. Names, parameters and defaults are
+declared once, in ``mgdata.spec.EVALUATORS``; this module implements exactly those:
 
 * ``dropped(floor_margin=0.05)``: the lowest point of the object's collision geometry is below floor + margin;
 * ``upright(max_tilt_deg)``: the object's +Z axis is within ``max_tilt_deg`` of world +Z;
@@ -14,7 +14,9 @@ brackets) follow ``mgdata.spec.EVALUATORS``:
   the ``container``'s cavity (5 mm sideways margin, 3 cm headroom above the rim);
 * ``in_region(region="goal")``: the object's world bounding box intersects the goal sphere;
 * ``held()``: both fingers touch the object;
-* ``covered(min_fraction=0.0)``: more than ``min_fraction`` of a dust patch's specks remain.
+* ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
+  subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
+  instance itself).
 
 ``support``/``other`` name an instance, a prefix glob (``obstacle_*``), ``table``, ``floor`` or ``robot``.
 """
@@ -22,7 +24,6 @@ brackets) follow ``mgdata.spec.EVALUATORS``:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -36,8 +37,6 @@ from mgdata.sim.scene import OWNER_FLOOR, OWNER_ROBOT, OWNER_TABLE, Scene
 ON_NORMAL_MIN_Z = np.cos(np.deg2rad(45.0))
 SPILL_MARGIN = 0.005
 SPILL_HEADROOM = 0.03
-REQUIRED = object()
-"""Marks a parameter without a default."""
 
 
 class Contacts:
@@ -70,15 +69,6 @@ class Contacts:
 
 Check = Callable[[Contacts], bool]
 Factory = Callable[[Scene, str, Mapping[str, Any]], Check]
-
-
-@dataclass(frozen=True)
-class Evaluator:
-    """A named predicate: its parameters (name -> default, or ``REQUIRED``) and its compiler."""
-
-    name: str
-    params: Mapping[str, Any]
-    factory: Factory
 
 
 def resolve(scene: Scene, pattern: str, what: str) -> list[str]:
@@ -204,46 +194,55 @@ def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     return lambda c: c.geoms_touch(fingers[0], obj) and c.geoms_touch(fingers[1], obj)
 
 
+def _dust_on(scene: Scene, subject: str) -> list[str]:
+    """Dust instances whose placement point lay on ``subject``'s footprint (or ``subject`` itself if dust)."""
+    if subject in scene.dust.mocap_ids:
+        return [subject]
+    placement, size = scene.task.object(subject), scene.objects[subject].size
+    c, s = np.cos(placement.yaw), np.sin(placement.yaw)
+    found = []
+    for name in scene.dust.mocap_ids:
+        d = np.asarray(scene.task.object(name).pos) - np.asarray(placement.pos)
+        x, y = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+        if abs(x) <= size[0] / 2 and abs(y) <= size[1] / 2 and -0.005 <= d[2] <= size[2] + 0.01:
+            found.append(name)
+    if not found:
+        raise SpecError(f"covered: no dust lies on {subject!r} (dust instances: "
+                        f"{', '.join(scene.dust.mocap_ids) or 'none'})")
+    return found
+
+
 def _covered(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    if subject not in scene.dust.mocap_ids:
-        raise SpecError(f"covered: subject {subject!r} is not a dust patch")
-    lo = float(p["min_fraction"])
-    return lambda c: scene.dust.remaining_fraction(scene.data, subject) > lo
+    dust, lo = _dust_on(scene, subject), float(p["min_fraction"])
+    counts = np.array([len(scene.dust.mocap_ids[n]) for n in dust], dtype=float)
+
+    def check(c: Contacts) -> bool:
+        left = np.array([scene.dust.remaining_fraction(scene.data, n) for n in dust]) @ counts
+        return bool(left / counts.sum() > lo)
+
+    return check
 
 
-REGISTRY: Mapping[str, Evaluator] = {
-    e.name: e
-    for e in (
-        Evaluator("dropped", {"floor_margin": 0.05}, _dropped),
-        Evaluator("upright", {"max_tilt_deg": REQUIRED}, _upright),
-        Evaluator("on", {"support": REQUIRED}, _on),
-        Evaluator("open", {"min_fraction": 0.5}, _open),
-        Evaluator("closed", {"max_fraction": 0.05}, _closed),
-        Evaluator("touching", {"other": REQUIRED}, _touching),
-        Evaluator("spilled", {"container": REQUIRED, "max_fraction": 0.15}, _spilled),
-        Evaluator("in_region", {"region": "goal"}, _in_region),
-        Evaluator("held", {}, _held),
-        Evaluator("covered", {"min_fraction": 0.0}, _covered),
-    )
+FACTORIES: Mapping[str, Factory] = {
+    "dropped": _dropped,
+    "upright": _upright,
+    "on": _on,
+    "open": _open,
+    "closed": _closed,
+    "touching": _touching,
+    "spilled": _spilled,
+    "in_region": _in_region,
+    "held": _held,
+    "covered": _covered,
 }
-"""Evaluator name -> :class:`Evaluator`."""
+"""Evaluator name -> compiler of one subject's check (names and parameters: ``mgdata.spec.EVALUATORS``)."""
 
 
-def compile_check(scene: Scene, evaluator: str, subject: str, params: Mapping[str, Any], where: str) -> Check:
-    """One subject's check, with parameters validated and defaults filled in.
+def compile_check(scene: Scene, evaluator: str, subject: str, params: Mapping[str, Any]) -> Check:
+    """One subject's check. ``params`` must be complete (validated against ``mgdata.spec.EVALUATORS``).
 
     Raises:
-        SpecError: unknown evaluator or parameter, a missing required parameter, or an unresolvable name.
+        SpecError: a name in the parameters does not resolve in this scene, or the subject does not fit the
+            evaluator (e.g. ``closed`` on an object without articulation).
     """
-    ev = REGISTRY.get(evaluator)
-    if ev is None:
-        raise SpecError(f"{where}: unknown evaluator {evaluator!r}; known: {', '.join(sorted(REGISTRY))}")
-    unknown = sorted(set(params) - set(ev.params))
-    if unknown:
-        raise SpecError(f"{where}: evaluator {evaluator!r} has no parameter(s) {', '.join(unknown)}; "
-                        f"parameters: {', '.join(ev.params) or 'none'}")
-    full = {k: params.get(k, default) for k, default in ev.params.items()}
-    missing = [k for k, v in full.items() if v is REQUIRED]
-    if missing:
-        raise SpecError(f"{where}: evaluator {evaluator!r} needs parameter(s) {', '.join(missing)}")
-    return ev.factory(scene, subject, full)
+    return FACTORIES[evaluator](scene, subject, params)
