@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -112,3 +114,33 @@ def test_cabinet_drawer_slides_open_when_pulled() -> None:
         mujoco.mj_step(scene.model, scene.data)
     assert scene.articulation_fraction("cabinet") > 0.5
     assert scene.object_pose("cabinet")[0] == pytest.approx([0.75, 0.0, 0.0], abs=1e-6)
+
+
+def test_imported_mesh_is_decomposed_once_and_usable_in_a_scene(tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    import trimesh
+
+    from mgdata.sim.assets import library
+    from mgdata.sim.assets.imported import mesh_model
+
+    monkeypatch.setenv("MGDATA_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(library, "_REGISTERED", {})  # keep the process-wide registry clean
+    ring = trimesh.creation.revolve(np.array([[0.03, 0], [0.05, 0], [0.05, 0.02], [0.03, 0.02], [0.03, 0]]),
+                                    sections=16)
+    path = tmp_path / "ring.stl"
+    ring.export(path)
+    model = mesh_model("toy/ring", path, mass=0.1)
+    assert 2 <= model.geometry["hulls"] <= 16  # a ring is not convex: several parts
+    assert len(list((tmp_path / "cache" / "coacd").glob("*.npz"))) == 1
+    again = mesh_model("toy/ring", path, mass=0.1)
+    pairs = zip(model.geoms, again.geoms, strict=True)
+    assert all(np.array_equal(a.mesh.verts, b.mesh.verts) for a, b in pairs)  # served from the cache
+    library.register(model)
+    assert get_model("toy/ring") is model and "toy/ring" in model_names("toy")
+    with pytest.raises(AssetError, match="already taken"):
+        library.register(again)
+    scene = build_scene(task_with(ObjectPlacement("ring", "toy/ring", (0.5, 0.0, 0.0))))
+    scene.reset()
+    assert scene.object_pose("ring")[0][2] == pytest.approx(0.0, abs=2e-3)
+    with pytest.raises(AssetError, match="does not exist"):
+        mesh_model("toy/none", tmp_path / "none.obj", mass=0.1)

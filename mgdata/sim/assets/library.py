@@ -73,11 +73,23 @@ def _index() -> dict[str, Kind]:
 
 
 _BY_NAME: dict[str, Kind] = _index()
+_REGISTERED: dict[str, ObjectModel] = {}
+
+
+def register(model: ObjectModel) -> None:
+    """Add a model built elsewhere (e.g. ``imported.mesh_model``) so scenes can name it.
+
+    Raises:
+        AssetError: the name is taken by a procedural model or another registered one.
+    """
+    if model.name in _BY_NAME or model.name in _REGISTERED:
+        raise AssetError(f"object model name {model.name!r} is already taken")
+    _REGISTERED[model.name] = model
 
 
 def categories() -> list[str]:
     """All categories, sorted."""
-    return sorted({k.category for k in KINDS})
+    return sorted({k.category for k in KINDS} | {m.category for m in _REGISTERED.values()})
 
 
 def model_names(category: str | None = None) -> list[str]:
@@ -88,7 +100,7 @@ def model_names(category: str | None = None) -> list[str]:
     """
     if category is not None and category not in categories():
         raise AssetError(f"unknown object category {category!r}; known: {', '.join(categories())}")
-    return sorted(n for n in _BY_NAME if category is None or n.split("/", 1)[0] == category)
+    return sorted(n for n in (*_BY_NAME, *_REGISTERED) if category is None or n.split("/", 1)[0] == category)
 
 
 @cache
@@ -98,9 +110,11 @@ def get_model(name: str) -> ObjectModel:
     Raises:
         AssetError: no such model; the message lists close names.
     """
+    if name in _REGISTERED:
+        return _REGISTERED[name]
     kind = _BY_NAME.get(name)
     if kind is None:
-        close = difflib.get_close_matches(name, list(_BY_NAME), n=5, cutoff=0.5)
+        close = difflib.get_close_matches(name, [*_BY_NAME, *_REGISTERED], n=5, cutoff=0.5)
         hint = f"; did you mean {', '.join(close)}?" if close else f"; categories: {', '.join(categories())}"
         raise AssetError(f"unknown object model {name!r} (expected 'category/model'){hint}")
     seed = model_seed(name)
