@@ -45,6 +45,7 @@ def _root(
 # (each module exposes ``register(app)``)
 COMMAND_MODULES: tuple[str, ...] = (
     "mgdata.grasps.commands",
+    "mgdata.engine.commands",
     "mgdata.record.commands",
     "mgdata.ltl.commands",
 )
