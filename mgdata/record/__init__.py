@@ -1,1 +1,12 @@
-"""Episode records and the LeRobot v3.0 dataset they are written to."""
+"""Episode records and the LeRobot v3.0 datasets they are written to.
+
+- :mod:`~mgdata.record.episode`: the recorder-sink contract (DatasetSchema, Frame, EpisodeMeta, EpisodeSink).
+- :mod:`~mgdata.record.writer`: :class:`DatasetWriter` (create / open to resume / append, crash-safe commits);
+  :mod:`~mgdata.record.staging`: :class:`EpisodeStager` for parallel workers.
+- :mod:`~mgdata.record.reader`: :class:`DatasetReader` (episodes, labels, metadata, decoded frames; no torch).
+- :mod:`~mgdata.record.validate`: ``mgdata validate`` (structure, counts, stats, checksums, safety audit).
+- :mod:`~mgdata.record.views`, :mod:`~mgdata.record.export_v21`: loader views and the v2.1 export.
+- :mod:`~mgdata.record.layout`: the on-disk format; ``docs/dataset-format.md`` describes it in full.
+
+Submodules are imported explicitly (nothing heavy is imported here).
+"""

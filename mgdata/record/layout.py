@@ -22,8 +22,9 @@ CHUNKS_SIZE = 1000
 DATA_FILE_MB = 100
 VIDEO_FILE_MB = 200
 # LeRobot 0.4.4 matches decoded frame times in float32 with a 1e-4 s tolerance, which fails once a video
-# file is longer than ~1024 s; mgdata therefore also starts a new video file after this many seconds.
-VIDEO_FILE_SECONDS = 600.0
+# file is longer than ~1024 s; and each appended episode rewrites (remuxes) the current video file. So
+# mgdata also starts a new video file after this many seconds (6000 frames at 20 Hz).
+VIDEO_FILE_SECONDS = 300.0
 
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"

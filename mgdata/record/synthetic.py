@@ -16,7 +16,7 @@ Example::
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,9 +69,11 @@ class SyntheticEpisode:
     def images(self, t: int) -> dict[str, np.ndarray]:
         return {cam: _draw(self.schema, k, self.seed, t) for k, cam in enumerate(self.schema.cameras)}
 
-    def frames(self) -> Iterator[Frame]:
+    def frames(self, images: Sequence[Mapping[str, np.ndarray]] | None = None) -> Iterator[Frame]:
+        """The episode's frames; ``images`` (one mapping per step) replaces the drawn ones (benchmarks)."""
         for t in range(self.length):
-            yield Frame(self.state[t], self.action[t], self.images(t), self.labels[t], self.dfa_state[t],
+            imgs = self.images(t) if images is None else images[t % len(images)]
+            yield Frame(self.state[t], self.action[t], imgs, self.labels[t], self.dfa_state[t],
                         self.violated[t], bool(self.engaged[t]), bool(self.success[t]))
 
 

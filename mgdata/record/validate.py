@@ -22,7 +22,7 @@ from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
 from mgdata.record.reader import DatasetReader
 from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, numeric_stats
-from mgdata.record.video import decode, probe
+from mgdata.record.video import check_decodes, decode, probe
 
 _ERRORS = (MgdataError, OSError, ValueError, KeyError, TypeError, IndexError, pa.ArrowException)
 
@@ -198,7 +198,7 @@ def _check_videos(reader: DatasetReader, records: list[EpisodeRecord], key: str,
             report.problems.append(f"{path}: episodes {not_key} do not start on a keyframe")
         try:
             if decode_all:
-                decode(path, 0, offset, s.fps)
+                check_decodes(path, offset, s.fps)
             else:
                 for st in starts:
                     decode(path, st, 1, s.fps)
