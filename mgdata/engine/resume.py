@@ -77,12 +77,14 @@ class RunState:
         seed: the user seed (``--seed``); a resume with another seed is refused (seeds would collide).
         recipe_digest: hash of the recipe's task list; a changed recipe is refused.
         next_draw: task id -> next draw index (covers every task ever attempted into this dataset).
+        attempts: attempts committed into this dataset so far, over all runs (kept or not).
     """
 
     family: str
     seed: int
     recipe_digest: str
     next_draw: dict[int, int] = field(default_factory=dict)
+    attempts: int = 0
 
     def check_compatible(self, other: RunState, path: Path) -> None:
         """Raise :class:`DatasetError` if ``other`` (this run's settings) cannot continue this dataset."""
@@ -100,6 +102,7 @@ class RunState:
             "seed": self.seed,
             "recipe_digest": self.recipe_digest,
             "next_draw": {str(k): v for k, v in sorted(self.next_draw.items())},
+            "attempts": self.attempts,
         }
 
     @classmethod
@@ -115,6 +118,7 @@ class RunState:
                 seed=int(raw["seed"]),
                 recipe_digest=str(raw["recipe_digest"]),
                 next_draw={int(k): int(v) for k, v in raw["next_draw"].items()},
+                attempts=int(raw.get("attempts", 0)),
             )
         except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as err:
             raise DatasetError(f"{path}: unreadable generator state ({err}); delete it to rebuild it from "

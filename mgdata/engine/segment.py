@@ -52,6 +52,8 @@ class MotionSegment:
         orientation: linear only: ``"hold"`` the start orientation or ``"slerp"`` to the target's.
         of: reverse only: the name of the earlier segment to replay backwards.
         steps: gripper/hold only: control steps.
+        speed: free/linear/reverse: fraction (0 … 1] of the planned speed; ``0.5`` takes twice as long and
+            quarters the accelerations (e.g. while carrying something that could slip).
     """
 
     name: str
@@ -63,6 +65,7 @@ class MotionSegment:
     orientation: Literal["hold", "slerp"] = "hold"
     of: str | None = None
     steps: int = 0
+    speed: float = 1.0
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -76,6 +79,8 @@ class MotionSegment:
             raise ValueError(f"segment {self.name!r}: 'of' is required for reverse segments only")
         if self.kind in ("gripper", "hold") and self.steps < 1:
             raise ValueError(f"segment {self.name!r}: {self.kind} segments need steps >= 1")
+        if not 0.0 < self.speed <= 1.0:
+            raise ValueError(f"segment {self.name!r}: speed must be in (0, 1], got {self.speed}")
         if self.orientation not in ("hold", "slerp"):
             raise ValueError(f"segment {self.name!r}: orientation must be 'hold' or 'slerp'")
 
@@ -85,15 +90,16 @@ def _allow(pairs: Pairs | AllowedContacts) -> AllowedContacts:
 
 
 def free(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
-         attached: str | None = None) -> MotionSegment:
+         attached: str | None = None, speed: float = 1.0) -> MotionSegment:
     """Collision-free joint-space motion to a TCP target."""
-    return MotionSegment(name, "free", target, gripper, _allow(allow), attached)
+    return MotionSegment(name, "free", target, gripper, _allow(allow), attached, speed=speed)
 
 
 def linear(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
-           attached: str | None = None, orientation: Literal["hold", "slerp"] = "hold") -> MotionSegment:
+           attached: str | None = None, orientation: Literal["hold", "slerp"] = "hold",
+           speed: float = 1.0) -> MotionSegment:
     """Straight TCP line to a target."""
-    return MotionSegment(name, "linear", target, gripper, _allow(allow), attached, orientation)
+    return MotionSegment(name, "linear", target, gripper, _allow(allow), attached, orientation, speed=speed)
 
 
 def gripper(name: str, command: GripperCommand, *, steps: int) -> MotionSegment:
@@ -102,9 +108,10 @@ def gripper(name: str, command: GripperCommand, *, steps: int) -> MotionSegment:
 
 
 def reverse(name: str, of: str, *, gripper: GripperCommand = "open", allow: Pairs = (),
-            attached: str | None = None) -> MotionSegment:
+            attached: str | None = None, speed: float = 1.0) -> MotionSegment:
     """Replay the executed joint trajectory of segment ``of`` backwards."""
-    return MotionSegment(name, "reverse", gripper=gripper, allow=_allow(allow), attached=attached, of=of)
+    return MotionSegment(name, "reverse", gripper=gripper, allow=_allow(allow), attached=attached, of=of,
+                         speed=speed)
 
 
 def hold(name: str, *, steps: int, gripper: GripperCommand = "open") -> MotionSegment:

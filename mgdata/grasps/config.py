@@ -52,8 +52,8 @@ def load_grasp_config(path: Path | None = None) -> GraspSettings:
         for key, value in table.items():
             if key not in fields:
                 raise RecipeError(f"{file}: unknown key [{name}] {key}; expected one of {sorted(fields)}")
-            kind = {"float": (int, float), "int": (int,)}[str(fields[key].type)]
-            if isinstance(value, bool) or not isinstance(value, kind):
+            kind = {"float": (int, float), "int": (int,), "bool": (bool,)}[str(fields[key].type)]
+            if isinstance(value, bool) != (fields[key].type == "bool") or not isinstance(value, kind):
                 raise RecipeError(f"{file}: [{name}] {key} = {value!r} should be a {fields[key].type}")
             values[key] = float(value) if fields[key].type == "float" else value
         out[name] = cls(**values)

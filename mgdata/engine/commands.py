@@ -1,0 +1,73 @@
+"""``mgdata generate`` (demonstrations into a LeRobot dataset) and ``mgdata preview`` (watch some of them)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from mgdata.errors import RecipeError
+from mgdata.paths import datasets_dir
+
+
+def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
+    """``"all"`` -> ``None``; ``"0-3,7"`` -> ``(0, 1, 2, 3, 7)``."""
+    if text.strip() == "all":
+        return None
+    out: list[int] = []
+    try:
+        for part in text.split(","):
+            lo, _, hi = part.strip().partition("-")
+            out += range(int(lo), int(hi or lo) + 1)
+    except ValueError:
+        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7'") from None
+    return tuple(out)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def generate(
+        family: Annotated[str, typer.Option(help="Task family (recipe + skeleton).")] = "jar",
+        n: Annotated[int, typer.Option("--n", help="Kept demonstrations wanted in the dataset.")] = 40,
+        tasks: Annotated[str, typer.Option(help="Base tasks, round-robin: 'all' or e.g. '0-3,7'.")] = "all",
+        task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
+        out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
+        workers: Annotated[int, typer.Option(help="Parallel attempt processes.")] = 1,
+        seed: Annotated[int, typer.Option(help="Seed mixed into every attempt's seed.")] = 0,
+        keep_failed: Annotated[bool, typer.Option(help="Also keep failed/unsafe attempts, in <out>_failed.")]
+        = False,
+        max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
+        codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
+    ) -> None:
+        """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
+
+        Example: mgdata generate --family jar --n 40 --workers 2
+        """
+        from mgdata.engine.generate import GenerateJob
+        from mgdata.engine.generate import generate as run
+        from mgdata.engine.summary import ProgressView, RunSummary, print_summary
+
+        job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
+                          tasks=(task,) if task is not None else parse_ids(tasks), workers=workers, seed=seed,
+                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec)
+        console = Console()
+        with ProgressView(RunSummary(out=job.out, target=n), console) as view:
+            summary = run(job, on_attempt=view.update)
+        print_summary(summary, console)
+        if summary.total_kept < n:
+            raise typer.Exit(1)
+
+    @app.command()
+    def preview(
+        dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
+        episodes: Annotated[str, typer.Option(help="Episode indices, e.g. '0-2,5'.")] = "0-2",
+        out: Annotated[Path | None, typer.Option(help="Output mp4 (default: <dataset>/preview.mp4).")] = None,
+    ) -> None:
+        """Render an mp4 of some episodes: every camera in a grid, with the step's safety labels."""
+        from mgdata.engine.preview import render_preview
+
+        chosen = parse_ids(episodes, "--episodes")
+        path = render_preview(dataset, chosen, out or dataset / "preview.mp4")
+        Console().print(f"wrote {path}")

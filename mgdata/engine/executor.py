@@ -1,0 +1,298 @@
+"""Executor: plan → execute → monitor → gate → record, one attempt at a time, for one task.
+
+Per attempt: reset the scene to the task's initial state; draw the variation from (family, task, draw, seed);
+for each segment of the skeleton resolve its target, plan it (IK + OMPL + toppra, a straight line, a reversal
+or a pause) from the last commanded configuration, and execute it at 20 Hz, labelling, monitoring and
+recording every control step; after the last segment hold still for up to ``settle_steps``. The attempt ends
+
+* as **kept** once the goal predicate has held for ``hold_steps`` consecutive steps with ν = 1,
+* as ``unsafe`` at the first step the monitor reports a violation,
+* as ``timeout`` at the family's step horizon, or with the failure stage of a planning step, a runtime target
+  or ``goal_not_reached``.
+
+Example::
+
+    ex = Executor(task, recipe, grasps=GraspDB.load_dir(grasps_dir()))
+    result = ex.run(draw=0, sink=MemorySink())
+    result.kept, result.stage, result.meta.t_engage
+    ex.close()
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mgdata.engine.context import Context
+from mgdata.engine.gate import AttemptFailed, SuccessGate, keep
+from mgdata.engine.segment import MotionSegment
+from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
+from mgdata.engine.timing import Timings
+from mgdata.engine.variation import draw_variation
+from mgdata.grasps.config import load_grasp_config
+from mgdata.grasps.db import GraspDB
+from mgdata.grasps.grip import GripConfig, apply_grip
+from mgdata.ltl import verdict
+from mgdata.motion import (
+    Attachment,
+    JointTrajectory,
+    MotionConfig,
+    MotionFailure,
+    MotionPlanner,
+    Pose,
+    load_motion_config,
+)
+from mgdata.record.episode import DatasetSchema, EpisodeMeta, EpisodeSink, Frame
+from mgdata.record.recorder import Recorder
+from mgdata.sim.controller import JointController
+from mgdata.sim.labelling import Labeller
+from mgdata.sim.renderer import CameraRig
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.spec import SafetySpec
+from mgdata.tasks.recipe import Recipe
+from mgdata.tasks.taskspec import TaskSpec
+
+_MOTION_STAGES = {"start_invalid": "plan_fail"}
+
+
+@dataclass(frozen=True)
+class AttemptResult:
+    """The outcome of one attempt.
+
+    Attributes:
+        task_id, draw, seed: which attempt this was.
+        kept: the gate accepted it (goal held for the window, ν = 1).
+        stage, reason, segment: why it failed (``None`` when kept).
+        steps: control steps (actions) executed; the episode has ``steps + 1`` frames.
+        verdict: the safety verdict ν; ``t_engage``/``t_violation``: first engagement / violation step
+            (per constraint), ``None`` for never.
+        grasp_id: the grasp the skeleton chose, if any.
+        meta: the episode metadata if the episode was recorded to the sink, else ``None``.
+        timings: seconds per phase.
+    """
+
+    task_id: int
+    draw: int
+    seed: int
+    kept: bool
+    stage: str | None
+    reason: str | None
+    segment: str | None
+    steps: int
+    verdict: bool
+    t_engage: int | None
+    t_violation: dict[str, int | None]
+    grasp_id: str | None
+    meta: EpisodeMeta | None
+    timings: Timings
+
+
+class _GatePassed(Exception):
+    """Internal: the goal held for the gate's window; stop executing."""
+
+
+class _TimedSink:
+    """Forwards to a sink, timing ``add_frame`` as encoding and ``end_episode`` as writing."""
+
+    def __init__(self, sink: EpisodeSink, timings: Timings) -> None:
+        self.sink, self.timings = sink, timings
+
+    def add_frame(self, frame: Frame) -> None:
+        with self.timings.measure("encoding"):
+            self.sink.add_frame(frame)
+
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        with self.timings.measure("writing"):
+            self.sink.end_episode(meta)
+
+    def discard_episode(self) -> None:
+        self.sink.discard_episode()
+
+
+def slowed(traj: JointTrajectory, speed: float) -> JointTrajectory:
+    """``traj`` played at ``speed`` (≤ 1) of its pace, resampled at its rate by linear interpolation.
+
+    Linear interpolation between consecutive samples stays on the segments the planner re-checked.
+    """
+    if speed >= 1.0 or len(traj) < 2:
+        return traj
+    duration = traj.duration / speed
+    n = int(np.ceil(duration * traj.rate - 1e-9)) + 1
+    t = np.minimum(np.arange(n) / traj.rate, duration) * speed
+    q = np.stack([np.interp(t, traj.times, traj.q[:, j]) for j in range(7)], axis=1)
+    q[-1] = traj.q[-1]
+    return JointTrajectory(q, traj.rate, duration)
+
+
+def dataset_schema(recipe: Recipe) -> DatasetSchema:
+    """The dataset schema every episode of a family's generation run shares."""
+    size = recipe.tasks.image_size
+    return DatasetSchema(fps=20, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
+                         propositions=recipe.spec.proposition_names,
+                         constraints=tuple(c.id for c in recipe.spec.constraints))
+
+
+class Executor:
+    """Runs attempts of one task; the scene, planner and renderer are built once and reset per attempt.
+
+    Args:
+        task: the task to demonstrate.
+        recipe: its family recipe (gate, horizon, variation knobs, success predicate).
+        grasps: the grasp database (the valid grasps of the task's object models go to the skeleton).
+        grip: the finger contact model (default: ``recipes/grasps.toml`` ``[grip]``).
+        motion: motion tunables (default: ``recipes/motion.toml``).
+        base_seed: the user seed mixed into every attempt seed.
+        render: record camera images (off for quick planning-only runs and grasp checks).
+    """
+
+    def __init__(self, task: TaskSpec, recipe: Recipe, *, grasps: GraspDB, grip: GripConfig | None = None,
+                 motion: MotionConfig | None = None, base_seed: int = 0, render: bool = True) -> None:
+        self.task, self.recipe, self.base_seed = task, recipe, base_seed
+        self.skeleton: FamilySkeleton = skeleton_for(task.family)
+        self.scene: Scene = build_scene(task)
+        apply_grip(self.scene.model, grip or load_grasp_config().grip)
+        self.controller = JointController(self.scene)
+        self.planner = MotionPlanner(self.scene.model, motion or load_motion_config())
+        self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None
+        self._goal = Labeller(self.scene, SafetySpec(f"{task.family}_goal", (), recipe.success))
+        self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
+                       if o.model in grasps.objects}
+
+    def close(self) -> None:
+        """Free the renderer (idempotent)."""
+        if self.cameras is not None:
+            self.cameras.close()
+            self.cameras = None
+
+    # -- one attempt ---------------------------------------------------------------------------------------
+    def run(self, draw: int, sink: EpisodeSink, *, keep_failed: bool = False) -> AttemptResult:
+        """Run attempt ``draw``; the episode goes to ``sink`` if kept (or always, with ``keep_failed``)."""
+        task, settings = self.task, self.recipe.tasks
+        var = draw_variation(task.family, task.task_id, draw, self.base_seed, self.recipe.variation)
+        timings = Timings()
+        self.scene.reset()
+        self.planner.sync(self.scene.data)
+        ctx = Context(task, self.scene, self.planner, var, self.grasps, self.scene.arm_q())
+        gate = SuccessGate(settings.hold_steps)
+        recorder = Recorder(self.scene, task.safety, _TimedSink(sink, timings), self.cameras,
+                            lambda scene: self._success(ctx))
+        state = _Run(ctx, recorder, gate, timings, settings.horizon)
+        stage = reason = segment = None
+        recorder.start()
+        try:
+            for seg in self.skeleton.segments(ctx):
+                segment = seg.name
+                self._segment(seg, ctx, state)
+            segment = "settle"
+            for _ in range(settings.settle_steps):
+                self._step(ctx.q_cmd, state.grip, state)
+            raise AttemptFailed("goal_not_reached", f"goal held for at most {gate.streak} consecutive steps "
+                                f"after {settings.settle_steps} settling steps (needs {gate.hold_steps})")
+        except _GatePassed:
+            segment = None
+        except AttemptFailed as fail:
+            stage, reason = fail.stage, fail.reason
+            segment = fail.segment or segment
+        except MotionFailure as fail:
+            stage, reason = _MOTION_STAGES.get(fail.stage, fail.stage), fail.reason
+        ok = verdict(recorder.t_violation, recorder.t_engage)
+        kept = stage is None and keep(gate.passed, ok)
+        meta, grasp_id = None, ctx.memo.get("grasp_id")
+        if kept or keep_failed:
+            meta = recorder.finish(seed=var.seed, draw_index=draw, kept=kept, success=gate.passed,
+                                   failure_stage=stage, failure_reason=reason, grasp_id=grasp_id,
+                                   variation=var.as_meta())
+        else:
+            recorder.discard()
+        return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, state.steps, ok,
+                             recorder.t_engage, recorder.first_violation, grasp_id, meta, timings)
+
+    def _success(self, ctx: Context) -> bool:
+        return bool(np.all(self._goal.labels())) and self.skeleton.success_extra(ctx)
+
+    # -- segments ------------------------------------------------------------------------------------------
+    def _segment(self, seg: MotionSegment, ctx: Context, state: _Run) -> None:
+        grip = 1.0 if seg.gripper == "close" else 0.0
+        if seg.kind in ("gripper", "hold"):
+            for _ in range(seg.steps):
+                self._step(ctx.q_cmd, grip, state)
+            ctx.executed[seg.name] = JointTrajectory(ctx.q_cmd[None], 20.0, 0.0)
+            return
+        with state.timings.measure("planning"):
+            traj = slowed(self._plan(seg, ctx), seg.speed)
+        for q in traj.q[1:]:
+            self._step(q, grip, state)
+        ctx.executed[seg.name] = traj
+
+    def _plan(self, seg: MotionSegment, ctx: Context) -> JointTrajectory:
+        planner = self.planner
+        planner.sync(self.scene.data)
+        if seg.kind == "reverse":
+            if seg.of not in ctx.executed:
+                raise AttemptFailed("target_fail", f"reverse of {seg.of!r}, which has not run yet", seg.name)
+            traj = planner.reverse(ctx.executed[seg.of])
+            if np.max(np.abs(traj.start - ctx.q_cmd)) > 1e-6:
+                raise AttemptFailed("path_discontinuity", f"segment {seg.of!r} ended elsewhere than the arm "
+                                    "is now; only the last motion can be reversed", seg.name)
+            return traj
+        target = self._target(seg, ctx)
+        attached = self._attachment(seg.attached) if seg.attached else None
+        rng = ctx.variation.rng(f"plan/{seg.name}")
+        if seg.kind == "linear":
+            return planner.linear(ctx.q_cmd, target, rng, orientation=seg.orientation, allowed=seg.allow,
+                                  attached=attached)
+        q_goal = planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=seg.allow, attached=attached)
+        return planner.free(ctx.q_cmd, q_goal, rng, allowed=seg.allow, attached=attached)
+
+    def _target(self, seg: MotionSegment, ctx: Context) -> Pose:
+        if isinstance(seg.target, Pose):
+            return seg.target
+        try:
+            return self.skeleton.resolve(str(seg.target), ctx)
+        except AttemptFailed:
+            raise
+        except KeyError as err:
+            raise AttemptFailed("target_fail", str(err), seg.name) from None
+
+    def _attachment(self, body: str) -> Attachment:
+        """The held object's pose in the TCP frame, measured from the live state."""
+        tcp = Pose.from_pos_mat(*self.scene.tcp_pose())
+        obj = Pose.from_pos_mat(*self.scene.object_pose(body))
+        return Attachment(body, (tcp.inverse() @ obj).matrix())
+
+    # -- one control step ----------------------------------------------------------------------------------
+    def _step(self, q: np.ndarray, grip: float, state: _Run) -> None:
+        action = np.empty(8, dtype=np.float32)
+        action[:7] = q
+        action[7] = grip
+        with state.timings.measure("physics"):
+            self.controller.apply(action)
+            self.controller.step()
+        encoding_before = state.timings.encoding
+        with state.timings.measure("rendering"):
+            monitor = state.recorder.record(action)
+        state.timings.rendering -= state.timings.encoding - encoding_before
+        state.ctx.q_cmd = np.asarray(q, dtype=np.float64).copy()
+        state.grip = grip
+        state.steps += 1
+        if monitor.t_violation is not None:
+            names = [cid for cid, t in state.recorder.first_violation.items() if t is not None]
+            raise AttemptFailed("unsafe", f"{', '.join(names)} violated at step {monitor.t_violation}")
+        if state.gate.update(state.recorder.success):
+            raise _GatePassed
+        if state.steps >= state.horizon:
+            raise AttemptFailed("timeout", f"horizon of {state.horizon} control steps reached")
+
+
+@dataclass
+class _Run:
+    """Mutable per-attempt state of the executor loop."""
+
+    ctx: Context
+    recorder: Recorder
+    gate: SuccessGate
+    timings: Timings
+    horizon: int
+    steps: int = 0
+    grip: float = 0.0

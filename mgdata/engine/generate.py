@@ -1,0 +1,181 @@
+"""One generation run: attempts in canonical order until the dataset holds the target number of kept demos.
+
+The dataset at ``out`` is created or resumed (its writer recovers from a killed run). Its generator state
+(``meta/mgdata_generate.json``: family, user seed, recipe digest, per-task draw cursor, attempts) must agree
+with the run, and every episode already in it must carry the seed that (task, draw, --seed) gives, so a
+resumed run can neither reuse a draw nor mix seeds. Kept attempts are appended to ``out``; with
+``keep_failed`` the others go to ``<out>_failed`` with their labels and failure stage; otherwise they are
+dropped. Ctrl-C stops at once: everything committed stays, and re-running the command continues.
+
+Example::
+
+    summary = generate(GenerateJob(family="jar", n=40, out=Path("datasets/jar"), workers=2))
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mgdata.engine.executor import dataset_schema
+from mgdata.engine.resume import DrawCursor, RunState
+from mgdata.engine.summary import RunSummary
+from mgdata.engine.variation import attempt_seed
+from mgdata.engine.workers import AttemptPool, WorkerConfig
+from mgdata.errors import DatasetError, RecipeError
+from mgdata.paths import grasps_dir
+from mgdata.record import layout
+from mgdata.record.commit import work_dir
+from mgdata.record.episode import DatasetSchema, EpisodeMeta
+from mgdata.record.writer import DatasetWriter
+from mgdata.spec import SafetySpec
+from mgdata.tasks.recipe import Recipe, load_recipe
+
+STATE_FILE = "meta/mgdata_generate.json"
+
+
+@dataclass(frozen=True)
+class GenerateJob:
+    """The settings of one run (the CLI's options).
+
+    Attributes:
+        family: task family (recipe and skeleton name).
+        n: kept episodes wanted in the dataset (existing ones count).
+        out: dataset folder.
+        tasks: base-task ids to draw from, round-robin (``None``: all of the recipe's tasks).
+        workers: attempt processes.
+        seed: user seed mixed into every attempt seed.
+        keep_failed: also record failed and unsafe attempts, into ``<out>_failed``.
+        max_attempts: attempts this run may make (``None``: 4 × the episodes still missing, at least 8).
+        codec: video codec of a new dataset (``h264`` or ``av1``).
+        grasps: grasp database folder.
+    """
+
+    family: str
+    n: int
+    out: Path
+    tasks: tuple[int, ...] | None = None
+    workers: int = 1
+    seed: int = 0
+    keep_failed: bool = False
+    max_attempts: int | None = None
+    codec: str = "h264"
+    grasps: Path | None = None
+
+
+def failed_path(out: Path) -> Path:
+    """Where the labelled negatives of ``out`` go."""
+    return out.with_name(out.name + "_failed")
+
+
+def _open_writer(root: Path, schema: DatasetSchema, spec: SafetySpec, codec: str) -> DatasetWriter:
+    if (root / layout.INFO_PATH).exists() or (root / layout.WORK_DIR).exists():
+        return DatasetWriter.open(root, schema)
+    return DatasetWriter.create(root, schema, codec=codec, spec=spec)
+
+
+def _check_episodes(metas: list[EpisodeMeta], job: GenerateJob, root: Path) -> None:
+    """Every episode already in the dataset must come from this family and this ``--seed``."""
+    for m in metas:
+        if m.family != job.family:
+            raise DatasetError(f"{root}: holds {m.family!r} episodes; this run generates {job.family!r} "
+                               "(use another --out)")
+        if m.source == "planner" and m.seed != attempt_seed(job.family, m.task_id, m.draw_index, job.seed):
+            raise DatasetError(f"{root}: its episodes were generated with another --seed than {job.seed}; "
+                               "resume with the same seed, or use another --out")
+
+
+def _tasks(job: GenerateJob, recipe: Recipe) -> tuple[int, ...]:
+    tasks = job.tasks if job.tasks is not None else tuple(range(recipe.tasks.count))
+    bad = [t for t in tasks if not 0 <= t < recipe.tasks.count]
+    if bad or not tasks:
+        raise RecipeError(f"{recipe.path}: task id(s) {bad or '(none)'} do not exist; the recipe has tasks "
+                          f"0 … {recipe.tasks.count - 1}")
+    return tuple(dict.fromkeys(tasks))
+
+
+def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None = None) -> RunSummary:
+    """Run until the dataset holds ``job.n`` kept episodes, ``max_attempts`` are spent, or Ctrl-C."""
+    if job.n < 1:
+        raise RecipeError(f"--n must be at least 1, got {job.n}")
+    if job.workers < 1:
+        raise RecipeError(f"--workers must be at least 1, got {job.workers}")
+    recipe = load_recipe(job.family)
+    tasks = _tasks(job, recipe)
+    schema = dataset_schema(recipe)
+    out = Path(job.out)
+    writer = _open_writer(out, schema, recipe.spec, job.codec)
+    failed: DatasetWriter | None = None
+    summary = RunSummary(out=out, target=job.n, kept_before=writer.num_episodes)
+    start = time.perf_counter()
+    try:
+        neg_root = failed_path(out)
+        if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
+            failed = _open_writer(neg_root, schema, recipe.spec, job.codec)
+            summary.failed_out = neg_root if job.keep_failed else None
+        metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
+        _check_episodes(metas, job, out)
+        state_path = out / STATE_FILE
+        state = RunState(job.family, job.seed, recipe.digest)
+        saved = RunState.load(state_path)
+        if saved is not None:
+            saved.check_compatible(state, state_path)
+            state = saved
+        cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
+        missing = max(0, job.n - writer.num_episodes)
+        budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
+        config = WorkerConfig(recipe.path, Path(job.grasps or grasps_dir()), work_dir(out) / "staging",
+                              job.seed, job.keep_failed, writer.video)
+        if missing == 0:
+            summary.stopped = "target already reached"
+            return summary
+        _loop(job, cursor, config, budget, writer, failed, state, state_path, summary, start, on_attempt)
+    except KeyboardInterrupt:
+        summary.stopped = "interrupted"
+    finally:
+        summary.wall = time.perf_counter() - start
+        writer.close()
+        if failed is not None:
+            failed.close()
+    return summary
+
+
+def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: int, writer: DatasetWriter,
+          failed: DatasetWriter | None, state: RunState, state_path: Path, summary: RunSummary, start: float,
+          on_attempt: Callable[[RunSummary], None] | None) -> None:
+    submitted = 0
+    shutil.rmtree(config.stage_dir, ignore_errors=True)
+    try:
+        with AttemptPool(config, job.workers) as pool:
+            while True:
+                while pool.in_flight < pool.capacity and submitted < budget:
+                    pool.submit(*cursor.take())
+                    submitted += 1
+                if pool.in_flight == 0:
+                    summary.stopped = "max attempts reached"
+                    return
+                done = pool.next_done()
+                result = done.result
+                t0 = time.perf_counter()
+                if result.kept and done.staged is not None:
+                    writer.append_staged(done.staged)
+                elif done.staged is not None and failed is not None and job.keep_failed:
+                    failed.append_staged(done.staged)
+                elif done.staged is not None:
+                    shutil.rmtree(done.staged, ignore_errors=True)
+                state.next_draw[result.task_id] = max(state.next_draw.get(result.task_id, 0), result.draw + 1)
+                state.attempts += 1
+                state.save(state_path)
+                writer.record_attempts(state.attempts)
+                summary.add(result, time.perf_counter() - t0)
+                summary.wall = time.perf_counter() - start
+                if on_attempt is not None:
+                    on_attempt(summary)
+                if summary.total_kept >= job.n:
+                    summary.stopped = "target reached"
+                    return
+    finally:
+        shutil.rmtree(config.stage_dir, ignore_errors=True)

@@ -1,0 +1,161 @@
+"""Attempt workers: run attempts in this process or in a pool of processes, results in canonical order.
+
+Each attempt is recorded into its own staged-episode folder (``EpisodeStager``); the main process appends
+staged folders to the dataset in the order the attempts were *submitted* (the cursor's canonical order), so
+the dataset is byte-identical whatever the number of workers. A worker keeps a few executors (scene,
+planner, renderer) for recently used tasks. Worker processes are started with ``spawn`` (a fresh interpreter:
+no inherited OpenGL or OMPL state) and ignore Ctrl-C; the main process handles it and terminates them.
+
+Example::
+
+    with AttemptPool(config, workers=2) as pool:
+        pool.submit(task_id=0, draw=0)
+        done = pool.next_done()          # results come back in submission order
+"""
+
+from __future__ import annotations
+
+import collections
+import multiprocessing as mp
+import signal
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from mgdata.engine.executor import AttemptResult, Executor
+from mgdata.grasps.config import load_grasp_config
+from mgdata.grasps.db import GraspDB
+from mgdata.record.staging import EpisodeStager
+from mgdata.record.video import VideoSettings
+from mgdata.tasks.base import base_task
+from mgdata.tasks.recipe import load_recipe
+
+EXECUTOR_CACHE = 2
+"""Executors (one per task) kept alive per worker; rebuilding one costs a fraction of an attempt."""
+
+
+@dataclass(frozen=True)
+class WorkerConfig:
+    """Everything a worker needs, as plain picklable data."""
+
+    recipe_path: Path
+    grasps_dir: Path
+    stage_dir: Path
+    base_seed: int
+    keep_failed: bool
+    video: VideoSettings
+
+
+@dataclass(frozen=True)
+class AttemptDone:
+    """A finished attempt: its result and, if it was recorded, the staged episode folder."""
+
+    result: AttemptResult
+    staged: Path | None
+
+
+class Worker:
+    """Runs attempts for any task of one recipe (one instance per process)."""
+
+    def __init__(self, config: WorkerConfig) -> None:
+        from mgdata.engine.executor import dataset_schema
+
+        self.config = config
+        self.recipe = load_recipe(config.recipe_path)
+        self.schema = dataset_schema(self.recipe)
+        self.grasps = GraspDB.load_dir(config.grasps_dir)
+        self.grip = load_grasp_config().grip
+        self._executors: collections.OrderedDict[int, Executor] = collections.OrderedDict()
+
+    def _executor(self, task_id: int) -> Executor:
+        if task_id in self._executors:
+            self._executors.move_to_end(task_id)
+            return self._executors[task_id]
+        while len(self._executors) >= EXECUTOR_CACHE:
+            self._executors.popitem(last=False)[1].close()
+        ex = Executor(base_task(self.recipe, task_id), self.recipe, grasps=self.grasps, grip=self.grip,
+                      base_seed=self.config.base_seed)
+        self._executors[task_id] = ex
+        return ex
+
+    def run(self, task_id: int, draw: int) -> AttemptDone:
+        path = self.config.stage_dir / f"task{task_id:04d}-draw{draw:06d}"
+        stager = EpisodeStager(path, self.schema, self.config.video)
+        try:
+            result = self._executor(task_id).run(draw, stager, keep_failed=self.config.keep_failed)
+        except BaseException:
+            stager.discard_episode()
+            raise
+        return AttemptDone(result, path if stager.done else None)
+
+    def close(self) -> None:
+        for ex in self._executors.values():
+            ex.close()
+        self._executors.clear()
+
+
+_WORKER: Worker | None = None
+
+
+def _init_worker(config: WorkerConfig) -> None:
+    global _WORKER
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _WORKER = Worker(config)
+
+
+def _run_in_worker(task_id: int, draw: int) -> AttemptDone:
+    assert _WORKER is not None
+    return _WORKER.run(task_id, draw)
+
+
+class AttemptPool:
+    """Submit attempts; get them back finished, in submission order.
+
+    ``workers == 1`` runs each attempt in this process when its result is asked for (Ctrl-C interrupts it
+    cleanly); more workers run in ``spawn``-ed processes with up to ``2 × workers`` attempts in flight.
+    """
+
+    def __init__(self, config: WorkerConfig, workers: int = 1) -> None:
+        if workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers}")
+        self.workers = workers
+        self.capacity = 1 if workers == 1 else 2 * workers
+        self._queue: collections.deque[tuple[int, int, Any]] = collections.deque()
+        self._local = Worker(config) if workers == 1 else None
+        self._pool = None if workers == 1 else mp.get_context("spawn").Pool(
+            workers, initializer=_init_worker, initargs=(config,), maxtasksperchild=None)
+
+    @property
+    def in_flight(self) -> int:
+        return len(self._queue)
+
+    def submit(self, task_id: int, draw: int) -> None:
+        handle = None if self._pool is None else self._pool.apply_async(_run_in_worker, (task_id, draw))
+        self._queue.append((task_id, draw, handle))
+
+    def next_done(self) -> AttemptDone:
+        """The oldest submitted attempt, waiting for it if needed."""
+        task_id, draw, handle = self._queue.popleft()
+        if handle is None:
+            assert self._local is not None
+            return self._local.run(task_id, draw)
+        return handle.get()
+
+    def close(self) -> None:
+        """Stop the workers, killing attempts still in flight (their results are no longer wanted)."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+        if self._local is not None:
+            self._local.close()
+            self._local = None
+        self._queue.clear()
+
+    def __enter__(self) -> AttemptPool:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
