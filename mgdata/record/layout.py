@@ -21,9 +21,9 @@ CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000
 DATA_FILE_MB = 100
 VIDEO_FILE_MB = 200
-# LeRobot 0.4.4 matches decoded frame times in float32 with a 1e-4 s tolerance, which fails once a video
-# file is longer than ~1024 s; and each appended episode rewrites (remuxes) the current video file. So
-# mgdata also starts a new video file after this many seconds (6000 frames at 20 Hz).
+# Each appended episode rewrites (remuxes) the current video file, and LeRobot 0.4.4 matches decoded frame
+# times in float32 with a 1e-4 s tolerance (float32 steps exceed it past 1024 s into a file). So mgdata
+# also starts a new video file after this many seconds (6000 frames at 20 Hz).
 VIDEO_FILE_SECONDS = 300.0
 
 INFO_PATH = "meta/info.json"
