@@ -142,6 +142,14 @@ class DatasetWriter:
             raise
         return writer
 
+    @classmethod
+    def open_or_create(cls, root: Path, schema: DatasetSchema, **create_args: object) -> DatasetWriter:
+        """:meth:`open` the dataset at ``root`` if one was ever committed there, else :meth:`create` it
+        (also after a ``create`` killed before its first commit); ``create_args`` go to :meth:`create`."""
+        root = Path(root)
+        committed = (root / layout.INFO_PATH).exists() or (work_dir(root) / "pending" / "COMMIT").exists()
+        return cls.open(root, schema) if committed else cls.create(root, schema, **create_args)
+
     def _load(self) -> None:
         from mgdata.record.reader import read_parquet  # the reader owns parquet error handling
 

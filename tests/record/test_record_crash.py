@@ -28,7 +28,6 @@ SCHEMA = synthetic_schema(cameras=("front", "wrist", "left"), size=64)
 CHILD = """
 import os, signal, sys
 from pathlib import Path
-from mgdata.errors import DatasetError
 from mgdata.record import commit
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.writer import DatasetWriter
@@ -47,10 +46,7 @@ if mode.startswith("die-after-commit-point"):
             os.replace(tmp, root / rel)
         os.kill(os.getpid(), signal.SIGKILL)
     commit.Transaction.commit = commit_then_die
-try:
-    writer = DatasetWriter.open(root, schema)
-except DatasetError:
-    writer = DatasetWriter.create(root, schema, spec=SYNTHETIC_SPEC)
+writer = DatasetWriter.open_or_create(root, schema, spec=SYNTHETIC_SPEC)
 start = writer.num_episodes
 for k in range(start, start + 1000):
     ep = synthetic_episode(schema, 20 + k % 7, seed=k, draw_index=k)
