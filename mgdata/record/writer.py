@@ -34,7 +34,6 @@ from mgdata.record.episodes import (
     EpisodeRecord,
     VideoSpan,
     record_to_table,
-    records_from_table,
     stats_features,
     table_schema,
 )
@@ -42,11 +41,11 @@ from mgdata.record.metafiles import (
     build_info,
     dump_json,
     read_info,
-    read_tasks,
     schema_from_info,
     video_settings_from_info,
     write_tasks,
 )
+from mgdata.record.reader import DatasetReader, read_parquet
 from mgdata.record.staging import EpisodeStager, StagedEpisode
 from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
@@ -151,30 +150,19 @@ class DatasetWriter:
         return cls.open(root, schema) if committed else cls.create(root, schema, **create_args)
 
     def _load(self) -> None:
-        from mgdata.record.reader import read_parquet  # the reader owns parquet error handling
-
-        total = self._info["total_episodes"]
-        self._tasks = read_tasks(self.root / layout.TASKS_PATH) if total else []
-        files = sorted({layout.episodes_path(r) for r in self._ref_list()})
-        for rel in files:
-            table = read_parquet(self.root / rel)
-            self._records += records_from_table(table, self.schema, str(self.root / rel))
-        if [r.index for r in self._records] != list(range(total)):
-            raise DatasetError(f"{self.root}: episodes table has {len(self._records)} rows, info.json says "
-                               f"{total}")
+        """Rebuild the in-memory state (records, tasks, stats inputs) from the committed files."""
+        reader = DatasetReader(self.root)
+        self._records, self._tasks = reader.records(), list(reader.tasks)
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
-        for rel in sorted({layout.data_path(r.data) for r in self._records}):
-            table = read_parquet(self.root / rel)
+        for ref in sorted({r.data for r in self._records}):
+            table = reader.data_table(ref)
             for col in layout.all_columns(self.schema):
                 self._values[col.key].append(col.from_arrow(table.column(col.key)))
         for rec in self._records:
             for key, hist in rec.histograms.items():
                 self._hist_sum[key] += hist
-
-    def _ref_list(self) -> list[layout.FileRef]:
-        return [layout.FileRef(c, f) for c, f in _episode_file_refs(self.root)]
 
     # --- queries -----------------------------------------------------------------------------------------
 
@@ -366,9 +354,3 @@ class DatasetWriter:
                  tb: TracebackType | None) -> None:
         self.close()
 
-
-def _episode_file_refs(root: Path) -> list[tuple[int, int]]:
-    refs = []
-    for path in sorted((root / layout.EPISODES_DIR).glob("chunk-*/file-*.parquet")):
-        refs.append((int(path.parent.name[6:]), int(path.stem[5:])))
-    return refs
