@@ -169,6 +169,20 @@ class FileView:
             if p.name != "lock" and not (p == pending_dir(root) and self.pending_commit)
         )
 
+    @property
+    def writer_active(self) -> bool:
+        """A writer holds the dataset's lock right now (its work area is in use, not a leftover)."""
+        lock = work_dir(self.root) / "lock"
+        if not lock.exists():
+            return False
+        with open(lock) as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+            except BlockingIOError:
+                return True
+            fcntl.flock(f, fcntl.LOCK_UN)
+        return False
+
     def path(self, rel: str) -> Path:
         tmp = self._map.get(rel)
         return tmp if tmp is not None and tmp.exists() else self.root / rel

@@ -55,9 +55,13 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
     if reader.files.pending_commit:
         report.notes.append("a committed episode is not yet installed (writer killed mid-install); read "
                             "through its commit manifest; the next DatasetWriter.open finishes it")
-    for rel in reader.files.leftovers:
-        report.notes.append(f"{rel}: uncommitted work of an interrupted writer (ignored; removed on the next "
-                            "DatasetWriter.open)")
+    if reader.files.writer_active:
+        report.notes.append("a writer is appending to this dataset right now; validated up to its last "
+                            "commit")
+    else:
+        for rel in reader.files.leftovers:
+            report.notes.append(f"{rel}: uncommitted work of an interrupted writer (ignored; removed on the "
+                                "next DatasetWriter.open)")
     records = reader.records()
     _guard(report, lambda: _check_info(reader, report))
     _guard(report, lambda: _check_index(reader, records, report))

@@ -203,7 +203,11 @@ class DatasetWriter:
         except BaseException:
             stager.discard_episode()
             raise
-        self.append_staged(stager.path)
+        try:
+            self.append_staged(stager.path)
+        except BaseException:
+            shutil.rmtree(stager.path, ignore_errors=True)
+            raise
 
     def discard_episode(self) -> None:
         if self._stager is not None:

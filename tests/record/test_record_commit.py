@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from mgdata.record.commit import FileView, Transaction, pending_dir, recover
+from mgdata.record.validate import validate_dataset
+from mgdata.record.writer import DatasetWriter
 
 
 def _tx(root: Path, text: str) -> Transaction:
@@ -49,3 +51,12 @@ def test_abort_discards(tmp_path: Path) -> None:
     tx = _tx(tmp_path, "v1")
     tx.abort()
     assert not (tmp_path / "meta").exists() and not pending_dir(tmp_path).exists()
+
+
+def test_an_active_writer_is_told_apart_from_leftovers(small_dataset: Path) -> None:
+    assert not FileView(small_dataset).writer_active
+    with DatasetWriter.open(small_dataset):
+        assert FileView(small_dataset).writer_active
+        assert validate_dataset(small_dataset).notes == [
+            "a writer is appending to this dataset right now; validated up to its last commit"]
+    assert not FileView(small_dataset).writer_active and validate_dataset(small_dataset).notes == []
