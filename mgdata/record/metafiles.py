@@ -16,11 +16,11 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from mgdata.errors import DatasetError
+from mgdata.errors import DatasetError, SpecError
 from mgdata.record import layout
 from mgdata.record.episode import DatasetSchema
 from mgdata.record.video import VideoSettings
-from mgdata.spec import Constraint, Proposition, SafetySpec
+from mgdata.spec import SafetySpec, spec_from_mapping
 
 MGDATA_FORMAT = 1
 _REQUIRED = ("codebase_version", "fps", "features", "total_episodes", "total_frames", "total_tasks",
@@ -28,27 +28,23 @@ _REQUIRED = ("codebase_version", "fps", "features", "total_episodes", "total_fra
 
 
 def spec_to_dict(spec: SafetySpec) -> dict[str, Any]:
+    """The spec as the table :func:`mgdata.spec.spec_from_mapping` reads (recipes use the same shape)."""
     return {
         "name": spec.name,
         "constraints": [{"id": c.id, "formula": c.formula, "description": c.description}
                         for c in spec.constraints],
-        "propositions": [{"name": p.name, "evaluator": p.evaluator, "subjects": list(p.subjects),
-                          "params": dict(p.params), "quantifier": p.quantifier} for p in spec.propositions],
+        "propositions": {p.name: {"evaluator": p.evaluator, "subjects": list(p.subjects),
+                                  "params": dict(p.params), "quantifier": p.quantifier}
+                         for p in spec.propositions},
     }
 
 
 def spec_from_dict(data: Mapping[str, Any], where: str) -> SafetySpec:
+    """Rebuild (and re-validate) the spec stored in ``info.json``."""
     try:
-        return SafetySpec(
-            name=str(data["name"]),
-            constraints=tuple(Constraint(str(c["id"]), str(c["formula"]), str(c.get("description", "")))
-                              for c in data["constraints"]),
-            propositions=tuple(Proposition(str(p["name"]), str(p["evaluator"]), tuple(p.get("subjects", ())),
-                                           dict(p.get("params", {})), str(p.get("quantifier", "all")))
-                               for p in data["propositions"]),
-        )
-    except (KeyError, TypeError) as err:
-        raise DatasetError(f"{where}: malformed mgdata.spec ({err})") from err
+        return spec_from_mapping(data, f"{where}: mgdata.spec")
+    except SpecError as err:
+        raise DatasetError(str(err)) from None
 
 
 def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | None, *, chunks_size: int,

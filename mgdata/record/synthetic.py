@@ -23,21 +23,23 @@ import numpy as np
 
 from mgdata.ltl import Monitor, verdict
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, Frame
-from mgdata.spec import Constraint, Proposition, SafetySpec
+from mgdata.spec import SafetySpec, spec_from_mapping
 
-SYNTHETIC_SPEC = SafetySpec(
-    name="synthetic_jar",
-    constraints=(
-        Constraint("order", "jar_on_table W jar_closed", "the jar stays on the table until it is closed"),
-        Constraint("intact", "G(jar_upright & !jar_dropped)", "the jar stays upright and is never dropped"),
-    ),
-    propositions=(
-        Proposition("jar_on_table", "on", ("jar", "table")),
-        Proposition("jar_closed", "closed", ("jar",)),
-        Proposition("jar_upright", "upright", ("jar",), {"max_tilt_deg": 30.0}),
-        Proposition("jar_dropped", "dropped", ("jar",)),
-    ),
-)
+SYNTHETIC_SPEC: SafetySpec = spec_from_mapping({
+    "name": "synthetic_jar",
+    "constraints": [
+        {"id": "order", "formula": "jar_on_table W jar_closed",
+         "description": "the jar stays on the table until it is closed"},
+        {"id": "intact", "formula": "G(jar_upright & !jar_dropped)",
+         "description": "the jar stays upright and is never dropped"},
+    ],
+    "propositions": {
+        "jar_on_table": {"evaluator": "on", "subjects": ["jar"], "params": {"support": "table"}},
+        "jar_closed": {"evaluator": "closed", "subjects": ["jar"]},
+        "jar_upright": {"evaluator": "upright", "subjects": ["jar"], "params": {"max_tilt_deg": 30.0}},
+        "jar_dropped": {"evaluator": "dropped", "subjects": ["jar"]},
+    },
+}, "mgdata.record.synthetic")
 CAMERAS = ("front", "left", "right", "shoulder", "wrist")
 
 

@@ -55,6 +55,8 @@ CASES = [
     ("other codebase version", _edit_info(lambda i: i.update(codebase_version="v2.1")), layout.INFO_PATH),
     ("not written by mgdata", _edit_info(lambda i: i.pop("mgdata")), layout.INFO_PATH),
     ("info.json not JSON", lambda r: (r / layout.INFO_PATH).write_text("{oops"), layout.INFO_PATH),
+    ("stored spec invalid", _edit_info(lambda i: i["mgdata"]["spec"]["propositions"]["jar_closed"].update(
+        evaluator="ajar")), layout.INFO_PATH),
 ]
 
 
@@ -65,6 +67,7 @@ def test_damage_is_reported_naming_the_file(dataset_copy: Callable[[], Path], ca
     damage(root)
     with pytest.raises(DatasetError) as err:  # whichever reader call touches the damaged file
         reader = DatasetReader(root)
+        assert reader.spec is not None
         reader.stats()
         for i in range(reader.num_episodes):
             reader.episode(i)
