@@ -40,6 +40,7 @@ def register(app: typer.Typer) -> None:
         = False,
         max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
         codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
+        recipe: Annotated[Path | None, typer.Option(help="Use this recipe file.")] = None,
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
 
@@ -51,7 +52,7 @@ def register(app: typer.Typer) -> None:
 
         job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks), workers=workers, seed=seed,
-                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec)
+                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
         console = Console()
         with ProgressView(RunSummary(out=job.out, target=n), console) as view:
             summary = run(job, on_attempt=view.update)

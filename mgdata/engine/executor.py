@@ -199,6 +199,7 @@ class Executor:
         ok = verdict(recorder.t_violation, recorder.t_engage)
         kept = stage is None and keep(gate.passed, ok)
         meta, grasp_id = None, ctx.memo.get("grasp_id")
+        t_engage, t_violation = recorder.t_engage, recorder.first_violation
         if kept or keep_failed:
             meta = recorder.finish(seed=var.seed, draw_index=draw, kept=kept, success=gate.passed,
                                    failure_stage=stage, failure_reason=reason, grasp_id=grasp_id,
@@ -206,7 +207,7 @@ class Executor:
         else:
             recorder.discard()
         return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, state.steps, ok,
-                             recorder.t_engage, recorder.first_violation, grasp_id, meta, timings)
+                             t_engage, t_violation, grasp_id, meta, timings)
 
     def _success(self, ctx: Context) -> bool:
         return bool(np.all(self._goal.labels())) and self.skeleton.success_extra(ctx)

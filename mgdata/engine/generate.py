@@ -52,6 +52,7 @@ class GenerateJob:
         max_attempts: attempts this run may make (``None``: 4 × the episodes still missing, at least 8).
         codec: video codec of a new dataset (``h264`` or ``av1``).
         grasps: grasp database folder.
+        recipe: a recipe file to use instead of ``recipes/<family>.toml``.
     """
 
     family: str
@@ -64,6 +65,7 @@ class GenerateJob:
     max_attempts: int | None = None
     codec: str = "h264"
     grasps: Path | None = None
+    recipe: Path | None = None
 
 
 def failed_path(out: Path) -> Path:
@@ -103,7 +105,9 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         raise RecipeError(f"--n must be at least 1, got {job.n}")
     if job.workers < 1:
         raise RecipeError(f"--workers must be at least 1, got {job.workers}")
-    recipe = load_recipe(job.family)
+    recipe = load_recipe(job.recipe or job.family)
+    if recipe.family != job.family:
+        raise RecipeError(f"{recipe.path} is a {recipe.family!r} recipe, not {job.family!r}")
     tasks = _tasks(job, recipe)
     schema = dataset_schema(recipe)
     out = Path(job.out)

@@ -1,0 +1,188 @@
+"""The jar family end to end: base tasks, a kept demonstration, determinism, a forced violation, the CLI,
+and resuming after a real SIGKILL."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mgdata.engine.executor import Executor
+from mgdata.grasps.db import GraspDB
+from mgdata.paths import grasps_dir, recipes_dir
+from mgdata.record.episode import MemorySink
+from mgdata.record.reader import DatasetReader
+from mgdata.sim.assets import get_model
+from mgdata.tasks.base import base_task, base_tasks
+from mgdata.tasks.recipe import load_recipe
+from skeletons.jar import JarSkeleton
+
+MGDATA = [str(Path(sys.executable).parent / "mgdata")]
+
+
+@pytest.fixture(scope="module")
+def recipe():  # type: ignore[no-untyped-def]
+    return load_recipe("jar")
+
+
+@pytest.fixture(scope="module")
+def grasps() -> GraspDB:
+    return GraspDB.load_dir(grasps_dir())
+
+
+def small_recipe(tmp: Path) -> Path:
+    """The shipped jar recipe with two 64-pixel cameras (fast to render and encode)."""
+    text = (recipes_dir() / "jar.toml").read_text()
+    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
+    cams = 'cameras = ["front", "left", "right", "shoulder", "wrist"]'
+    text = text.replace(cams, 'cameras = ["front", "wrist"]')
+    text = text.replace("image_size = 256", "image_size = 64")
+    path = tmp / "jar.toml"
+    path.write_text(text)
+    return path
+
+
+def test_base_tasks_follow_the_layout_rules(recipe) -> None:  # type: ignore[no-untyped-def]
+    tasks = base_tasks(recipe)
+    assert len(tasks) == 26
+    assert base_tasks(recipe) == tasks  # deterministic
+    lay = recipe.layout
+    for task in tasks:
+        jar, food = task.object("jar"), task.object("food")
+        assert lay["jar_x"][0] <= jar.pos[0] <= lay["jar_x"][1]
+        assert lay["jar_y"][0] <= jar.pos[1] <= lay["jar_y"][1]
+        facing = math.atan2(jar.pos[1], jar.pos[0])  # the hinge (local −X) faces the robot
+        assert abs(jar.yaw - facing) <= math.radians(lay["jar_yaw_jitter_deg"]) + 1e-9
+        gx, gy, _ = task.goal.pos
+        assert lay["goal_x"][0] <= gx <= lay["goal_x"][1] and lay["goal_y"][0] <= gy <= lay["goal_y"][1]
+        d = math.hypot(gx - jar.pos[0], gy - jar.pos[1])
+        assert lay["goal_distance"][0] - 1e-9 <= d <= lay["goal_distance"][1] + 1e-9
+        geo = get_model(jar.model).geometry
+        assert get_model(food.model).geometry["width"] < 2 * geo["mouth_radius"]
+        assert task.prompt.startswith("Close the lid of the hinged jar holding the ")
+        assert task.prompt.endswith("then carry the closed jar into the green goal sphere on the table.")
+        assert task.articulation["jar"] == lay["lid_open"]
+    assert len({t.object("jar").model for t in tasks}) > 8  # the jar model varies
+
+
+def test_a_jar_demonstration_is_kept_and_reproducible(recipe, grasps) -> None:  # type: ignore[no-untyped-def]
+    runs = []
+    for _ in range(2):
+        ex = Executor(base_task(recipe, 0), recipe, grasps=grasps, render=False)
+        sink = MemorySink()
+        runs.append((ex.run(0, sink), sink))
+        ex.close()
+    (res, sink), (res2, sink2) = runs
+    assert res.kept and res.stage is None and res.verdict
+    assert res.t_engage is not None and all(t is None for t in res.t_violation.values())
+    frames, meta = sink.episodes[0]
+    assert meta.kept and meta.success and meta.grasp_id == res.grasp_id and meta.draw_index == 0
+    assert len(frames) == res.steps + 1 and all(f.success for f in frames[-recipe.tasks.hold_steps:])
+    assert not any(f.violated.any() for f in frames)
+    # the same seed gives the same episode, bit for bit
+    assert res2.steps == res.steps and res2.seed == res.seed
+    for a, b in zip(frames, sink2.episodes[0][0], strict=True):
+        assert np.array_equal(a.state, b.state) and np.array_equal(a.action, b.action)
+        assert np.array_equal(a.labels, b.labels) and np.array_equal(a.dfa_state, b.dfa_state)
+
+
+class _LiftOpenJar(JarSkeleton):
+    """The jar skeleton without its lid phase: it lifts the jar while the lid is still open."""
+
+    def segments(self, ctx):  # type: ignore[no-untyped-def]
+        return [seg for seg in super().segments(ctx) if not seg.name.startswith("lid_")]
+
+
+def test_lifting_the_open_jar_is_rejected_at_the_violating_step(recipe, grasps):  # type: ignore[no-untyped-def]
+    ex = Executor(base_task(recipe, 0), recipe, grasps=grasps, render=False)
+    ex.skeleton = _LiftOpenJar()
+    sink = MemorySink()
+    res = ex.run(0, sink, keep_failed=True)
+    ex.close()
+    assert res.stage == "unsafe" and not res.kept and res.segment == "lift"
+    t_v = res.t_violation["jar_stays_until_closed"]
+    assert t_v is not None and res.t_violation["jar_not_dropped"] is None
+    assert "jar_stays_until_closed violated at step" in (res.reason or "")
+    frames, meta = sink.episodes[0]
+    names = recipe.spec.proposition_names
+    on, closed = names.index("jar_on_support"), names.index("jar_closed")
+    first_bad = next(t for t, f in enumerate(frames) if not f.labels[on] and not f.labels[closed])
+    assert t_v == first_bad == res.steps == len(frames) - 1  # the attempt ended at that very step
+    assert frames[t_v].violated[0] and not frames[t_v - 1].violated[0]
+    assert meta.failure_stage == "unsafe" and not meta.kept and not meta.verdict
+
+
+def _generate(out: Path, recipe_file: Path, n: int, *extra: str) -> subprocess.CompletedProcess:
+    cmd = [*MGDATA, "generate", "--family", "jar", "--n", str(n), "--out", str(out), "--recipe",
+           str(recipe_file), "--tasks", "0-3", *extra]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file() and ".mgdata" not in p.parts}
+
+
+def test_generate_cli_writes_a_valid_dataset(tmp_path: Path) -> None:
+    out = tmp_path / "jar"
+    proc = _generate(out, small_recipe(tmp_path), 2)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "target reached" in proc.stdout and "kept" in proc.stdout
+    check = subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, text=True, timeout=300)
+    assert check.returncode == 0, check.stdout + check.stderr
+    reader = DatasetReader(out)
+    assert reader.num_episodes == 2
+    metas = [reader.record(i).meta for i in range(2)]
+    assert all(m.kept and m.verdict and m.family == "jar" for m in metas)
+    assert [(m.task_id, m.draw_index) for m in metas] == [(0, 0), (1, 0)]
+    # a second run with the same target has nothing to do and leaves the dataset untouched
+    before = _files(out)
+    again = _generate(out, small_recipe(tmp_path), 2)
+    assert again.returncode == 0 and _files(out) == before
+
+
+def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
+    cmd = [*MGDATA, "generate", "--family", "nosuch", "--n", "1", "--out", str(tmp_path / "x")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "no recipe for family 'nosuch'" in proc.stderr and "Traceback" not in proc.stderr
+    proc = _generate(tmp_path / "y", small_recipe(tmp_path), 1, "--tasks", "0-40")
+    assert proc.returncode == 2 and "do not exist" in proc.stderr
+
+
+def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
+    recipe_file = small_recipe(tmp_path)
+    whole = tmp_path / "whole"
+    assert _generate(whole, recipe_file, 3).returncode == 0
+    out = tmp_path / "killed"
+    cmd = [*MGDATA, "generate", "--family", "jar", "--n", "3", "--out", str(out), "--recipe",
+           str(recipe_file), "--tasks", "0-3"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    info = out / "meta" / "info.json"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:  # wait for the first committed episode; kill during the next one
+        if info.exists() and json.loads(info.read_text()).get("total_episodes", 0) >= 1:
+            time.sleep(0.4)
+            break
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    first = json.loads(info.read_text())["total_episodes"]
+    assert 1 <= first < 3
+    resumed = _generate(out, recipe_file, 3)
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    reader = DatasetReader(out)
+    metas = [reader.record(i).meta for i in range(reader.num_episodes)]
+    keys = [(m.task_id, m.draw_index) for m in metas]
+    assert len(keys) == 3 and len(set(keys)) == 3
+    assert subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, timeout=300).returncode == 0
+    # the interrupted-and-resumed dataset is the uninterrupted one, byte for byte
+    assert _files(out) == _files(whole)
