@@ -242,7 +242,8 @@ def remux(parts: Sequence[tuple[Path, int, int]], out: Path, fps: int) -> None:
             with _open(path) as source:
                 src = source.streams.video[0]
                 if stream is None:
-                    stream = container.add_stream_from_template(src)
+                    # opaque: reuse the source's codec object (the AV1 decoder libdav1d has no encoder twin)
+                    stream = container.add_stream_from_template(src, opaque=True)
                     stream.time_base = Fraction(1, fps)
                     extradata = src.codec_context.extradata
                 elif src.codec_context.extradata != extradata:

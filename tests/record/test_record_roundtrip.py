@@ -118,3 +118,13 @@ def test_resume_continues_appending(tmp_path: Path) -> None:
     assert reader.num_episodes == 4 and reader.info["mgdata"]["attempts"] == 7
     np.testing.assert_array_equal(reader.episode(3).labels, episodes[3].labels)
     assert validate_dataset(root).ok
+
+
+def test_av1_datasets_append_and_validate(tmp_path: Path) -> None:
+    episodes = small_episodes((12, 9))
+    root = write_dataset(tmp_path / "av1", episodes, codec="av1")
+    reader = DatasetReader(root)
+    assert reader.video.codec == "av1" and reader.info["features"]["observation.images.left"]["info"][
+        "video.codec"] == "av1"
+    assert reader.frames(1, "left").shape == (9, 64, 64, 3)
+    assert validate_dataset(root, decode_all=True).ok
