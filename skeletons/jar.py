@@ -137,12 +137,16 @@ class JarSkeleton(FamilySkeleton):
         ctx.memo["grasp_id"] = grasp.id
 
     def _reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
-        """Valid grasps whose pre-grasp and grasp poses have IK solutions with joint-limit margin.
+        """Valid grasps whose pre-grasp and grasp poses have IK solutions with joint-limit margin and with
+        the arm ``grasp_clearance`` clear of everything but the jar (a wrist that grazes the table in the plan
+        hits it once the servos sag, and the grasp misses).
 
         Evaluated once per task from the start state with a task-derived seed, so every worker agrees.
         """
         jar = ctx.object_pose("jar").matrix()
         margin = float(ctx.param("grasp_margin"))
+        checker = ctx.planner.checker
+        checker.configure(AllowedContacts((("base", "jar"),)), None, float(ctx.param("grasp_clearance")))
         standoff = float(ctx.param("reach_standoff"))
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9A5]))
         out = []
@@ -156,7 +160,7 @@ class JarSkeleton(FamilySkeleton):
                 continue
             room = min(np.min(q - ctx.planner.lower), np.min(ctx.planner.upper - q),
                        np.min(q_pre - ctx.planner.lower), np.min(ctx.planner.upper - q_pre))
-            if room >= margin:
+            if room >= margin and checker.valid(q) and checker.valid(q_pre):
                 out.append(grasp)
         return tuple(out)
 
