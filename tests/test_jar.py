@@ -186,3 +186,38 @@ def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
     assert subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, timeout=300).returncode == 0
     # the interrupted-and-resumed dataset is the uninterrupted one, byte for byte
     assert _files(out) == _files(whole)
+
+
+def test_keep_failed_puts_labelled_negatives_in_a_separate_dataset(tmp_path: Path) -> None:
+    recipe_file = small_recipe(tmp_path)
+    # a lid that starts below vertical falls shut while the scene settles: the lid-push target cannot exist
+    recipe_file.write_text(recipe_file.read_text().replace("lid_open = 1.0", "lid_open = 0.5"))
+    out = tmp_path / "jar"
+    proc = _generate(out, recipe_file, 1, "--keep-failed", "--max-attempts", "2")
+    assert proc.returncode == 1 and "max attempts reached" in proc.stdout, proc.stdout + proc.stderr
+    assert DatasetReader(out).num_episodes == 0
+    negatives = DatasetReader(out.with_name("jar_failed"))
+    metas = [negatives.record(i).meta for i in range(negatives.num_episodes)]
+    assert [(m.task_id, m.draw_index) for m in metas] == [(0, 0), (1, 0)]
+    assert all(not m.kept and m.failure_stage == "target_fail" and "past vertical" in m.failure_reason
+               for m in metas)
+    assert negatives.episode(0).labels.shape[1] == 4  # the labels are stored with the negatives too
+
+
+def test_ctrl_c_stops_cleanly_and_keeps_what_was_committed(tmp_path: Path) -> None:
+    out = tmp_path / "jar"
+    cmd = [*MGDATA, "generate", "--family", "jar", "--n", "20", "--out", str(out), "--recipe",
+           str(small_recipe(tmp_path)), "--workers", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    info = out / "meta" / "info.json"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and not (
+            info.exists() and json.loads(info.read_text()).get("total_episodes", 0) >= 1):
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 1, stdout + stderr
+    assert "interrupted" in stdout and "Traceback" not in stderr
+    check = subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, text=True, timeout=300)
+    assert check.returncode == 0, check.stdout
+    assert 1 <= DatasetReader(out).num_episodes < 20
