@@ -30,6 +30,7 @@ from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
 from mgdata.engine.timing import Timings
 from mgdata.engine.variation import draw_variation
+from mgdata.errors import SimulationError
 from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import GraspDB
 from mgdata.grasps.grip import GripConfig, apply_grip
@@ -196,6 +197,8 @@ class Executor:
             segment = fail.segment or segment
         except MotionFailure as fail:
             stage, reason = _MOTION_STAGES.get(fail.stage, fail.stage), fail.reason
+        except SimulationError as fail:
+            stage, reason = "sim_diverged", str(fail)
         ok = verdict(recorder.t_violation, recorder.t_engage)
         kept = stage is None and keep(gate.passed, ok)
         meta, grasp_id = None, ctx.memo.get("grasp_id")

@@ -18,6 +18,7 @@ STAGES: dict[str, str] = {
     "path_discontinuity": "a Cartesian segment needed a joint-space jump",
     "target_fail": "a runtime target could not be resolved from the live state",
     "unsafe": "the safety monitor reported a violation",
+    "sim_diverged": "the physics diverged (NaN or runaway accelerations)",
     "timeout": "the attempt ran past the family's step horizon",
     "goal_not_reached": "all segments ran but the goal did not hold for the gate's window",
 }
