@@ -158,13 +158,34 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
     assert proc.returncode == 2 and "do not exist" in proc.stderr
 
 
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
+    """Kill -9 a two-worker run mid-episode, resume with one worker: the dataset is byte-identical to an
+    uninterrupted one-worker run (so neither the kill nor the worker count changes a single byte)."""
     recipe_file = small_recipe(tmp_path)
     whole = tmp_path / "whole"
     assert _generate(whole, recipe_file, 3).returncode == 0
     out = tmp_path / "killed"
     cmd = [*MGDATA, "generate", "--family", "jar", "--n", "3", "--out", str(out), "--recipe",
-           str(recipe_file), "--tasks", "0-3"]
+           str(recipe_file), "--tasks", "0-3", "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     info = out / "meta" / "info.json"
     deadline = time.monotonic() + 300
@@ -173,8 +194,13 @@ def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
             time.sleep(0.4)
             break
         time.sleep(0.05)
+    workers = _children(proc.pid)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
+    deadline = time.monotonic() + 10
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert workers and not any(_alive(w) for w in workers), "worker processes outlived the killed run"
     first = json.loads(info.read_text())["total_episodes"]
     assert 1 <= first < 3
     resumed = _generate(out, recipe_file, 3)

@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -131,8 +132,10 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
         missing = max(0, job.n - writer.num_episodes)
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
-        config = WorkerConfig(recipe.path, Path(job.grasps or grasps_dir()), work_dir(out) / "staging",
-                              job.seed, job.keep_failed, writer.video)
+        # per-run folder under staging/ (which the writer's open() clears after a crash)
+        stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
+        config = WorkerConfig(recipe.path, Path(job.grasps or grasps_dir()), stage_dir, job.seed,
+                              job.keep_failed, writer.video)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary

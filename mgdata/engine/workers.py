@@ -16,8 +16,11 @@ Example::
 from __future__ import annotations
 
 import collections
+import contextlib
+import ctypes
 import multiprocessing as mp
 import signal
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -31,6 +34,7 @@ from mgdata.record.video import VideoSettings
 from mgdata.tasks.base import base_task
 from mgdata.tasks.recipe import load_recipe
 
+_PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
 """Executors (one per task) kept alive per worker; rebuilding one costs a fraction of an attempt."""
 
@@ -98,9 +102,18 @@ class Worker:
 _WORKER: Worker | None = None
 
 
+def _die_with_parent() -> None:
+    """Linux: have the kernel kill this worker if the main process dies (e.g. ``kill -9``), so no orphan
+    keeps simulating and writing into the dataset's staging area after its run is gone."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
 def _init_worker(config: WorkerConfig) -> None:
     global _WORKER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent()
     _WORKER = Worker(config)
 
 
