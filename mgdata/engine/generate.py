@@ -14,10 +14,13 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -144,10 +147,28 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         summary.stopped = "interrupted"
     finally:
         summary.wall = time.perf_counter() - start
-        writer.close()
-        if failed is not None:
-            failed.close()
+        with _sigint_deferred(reraise=False):
+            writer.close()
+            if failed is not None:
+                failed.close()
     return summary
+
+
+@contextlib.contextmanager
+def _sigint_deferred(reraise: bool = True) -> Iterator[None]:
+    """Hold Ctrl-C (SIGINT) until the block is done, then raise it (``reraise``) or forget it: an append or a
+    close is never cut in half."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught and reraise:
+        raise KeyboardInterrupt
 
 
 def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: int, writer: DatasetWriter,
@@ -167,16 +188,18 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                 done = pool.next_done()
                 result = done.result
                 t0 = time.perf_counter()
-                if result.kept and done.staged is not None:
-                    writer.append_staged(done.staged)
-                elif done.staged is not None and failed is not None and job.keep_failed:
-                    failed.append_staged(done.staged)
-                elif done.staged is not None:
-                    shutil.rmtree(done.staged, ignore_errors=True)
-                state.next_draw[result.task_id] = max(state.next_draw.get(result.task_id, 0), result.draw + 1)
-                state.attempts += 1
-                state.save(state_path)
-                writer.record_attempts(state.attempts)
+                with _sigint_deferred():  # a commit and the cursor recording it happen together or not at all
+                    if result.kept and done.staged is not None:
+                        writer.append_staged(done.staged)
+                    elif done.staged is not None and failed is not None and job.keep_failed:
+                        failed.append_staged(done.staged)
+                    elif done.staged is not None:
+                        shutil.rmtree(done.staged, ignore_errors=True)
+                    state.next_draw[result.task_id] = max(state.next_draw.get(result.task_id, 0),
+                                                          result.draw + 1)
+                    state.attempts += 1
+                    state.save(state_path)
+                    writer.record_attempts(state.attempts)
                 summary.add(result, time.perf_counter() - t0)
                 summary.wall = time.perf_counter() - start
                 if on_attempt is not None:
