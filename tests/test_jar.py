@@ -94,6 +94,13 @@ def test_a_jar_demonstration_is_kept_and_reproducible(recipe, grasps) -> None:  
         assert np.array_equal(a.labels, b.labels) and np.array_equal(a.dfa_state, b.dfa_state)
 
 
+def test_missing_grasps_fail_with_a_hint(recipe) -> None:  # type: ignore[no-untyped-def]
+    ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB({}), render=False)
+    res = ex.run(0, MemorySink())
+    ex.close()
+    assert res.stage == "no_grasp" and "mgdata grasps generate" in (res.reason or "") and res.steps == 0
+
+
 class _LiftOpenJar(JarSkeleton):
     """The jar skeleton without its lid phase: it lifts the jar while the lid is still open."""
 
@@ -147,6 +154,10 @@ def test_generate_cli_writes_a_valid_dataset(tmp_path: Path) -> None:
     before = _files(out)
     again = _generate(out, small_recipe(tmp_path), 2)
     assert again.returncode == 0 and _files(out) == before
+    # resuming with another seed would mix seeds: refused with one line, nothing touched
+    other = _generate(out, small_recipe(tmp_path), 3, "--seed", "7")
+    assert other.returncode == 2 and "seed=0" in other.stderr and "seed=7" in other.stderr
+    assert _files(out) == before
 
 
 def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:

@@ -124,14 +124,14 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
             failed = _open_writer(neg_root, schema, recipe.spec, job.codec)
             summary.failed_out = neg_root if job.keep_failed else None
-        metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
-        _check_episodes(metas, job, out)
         state_path = out / STATE_FILE
         state = RunState(job.family, job.seed, recipe.digest)
         saved = RunState.load(state_path)
         if saved is not None:
             saved.check_compatible(state, state_path)
             state = saved
+        metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
+        _check_episodes(metas, job, out)
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
         missing = max(0, job.n - writer.num_episodes)
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
