@@ -139,8 +139,10 @@ def _files(root: Path) -> dict[str, bytes]:
 
 
 def test_generate_cli_writes_a_valid_dataset(tmp_path: Path) -> None:
+    """The bare command on the shipped recipe (five 256² cameras), two demonstrations."""
     out = tmp_path / "jar"
-    proc = _generate(out, small_recipe(tmp_path), 2)
+    cmd = [*MGDATA, "generate", "--family", "jar", "--n", "2", "--out", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "target reached" in proc.stdout and "kept" in proc.stdout
     check = subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, text=True, timeout=300)
@@ -151,11 +153,13 @@ def test_generate_cli_writes_a_valid_dataset(tmp_path: Path) -> None:
     assert all(m.kept and m.verdict and m.family == "jar" for m in metas)
     assert [(m.task_id, m.draw_index) for m in metas] == [(0, 0), (1, 0)]
     # a second run with the same target has nothing to do and leaves the dataset untouched
+    assert reader.schema.cameras == ("front", "left", "right", "shoulder", "wrist")
+    assert reader.schema.image_height == 256
     before = _files(out)
-    again = _generate(out, small_recipe(tmp_path), 2)
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0 and _files(out) == before
     # resuming with another seed would mix seeds: refused with one line, nothing touched
-    other = _generate(out, small_recipe(tmp_path), 3, "--seed", "7")
+    other = subprocess.run([*cmd, "--seed", "7"], capture_output=True, text=True, timeout=600)
     assert other.returncode == 2 and "seed=0" in other.stderr and "seed=7" in other.stderr
     assert _files(out) == before
 
