@@ -20,6 +20,7 @@ from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record.episode import MemorySink
 from mgdata.record.reader import DatasetReader
+from mgdata.record.video import decode
 from mgdata.sim.assets import get_model
 from mgdata.tasks.base import base_task, base_tasks
 from mgdata.tasks.recipe import load_recipe
@@ -155,6 +156,15 @@ def test_generate_cli_writes_a_valid_dataset(tmp_path: Path) -> None:
     # a second run with the same target has nothing to do and leaves the dataset untouched
     assert reader.schema.cameras == ("front", "left", "right", "shoulder", "wrist")
     assert reader.schema.image_height == 256
+    # the preview: every camera plus the label panel in a 3 × 2 grid, one video frame per recorded step
+    movie = tmp_path / "preview.mp4"
+    shown = subprocess.run([*MGDATA, "preview", str(out), "--episodes", "1", "--out", str(movie)],
+                           capture_output=True, text=True, timeout=300)
+    assert shown.returncode == 0, shown.stderr
+    grid = decode(movie, 0, reader.record(1).length, reader.schema.fps)
+    assert grid.shape == (reader.record(1).length, 512, 768, 3)
+    front = reader.frames(1, "front")
+    assert np.abs(grid[:, :256, :256].astype(int) - front.astype(int)).mean() < 6.0  # re-encoded picture
     before = _files(out)
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0 and _files(out) == before

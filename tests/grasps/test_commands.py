@@ -1,0 +1,48 @@
+"""``mgdata grasps generate | validate | list`` through the real console script."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+from mgdata.grasps.db import GraspDB
+
+MGDATA = str(Path(sys.executable).parent / "mgdata")
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([MGDATA, "grasps", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_generate_validate_list(tmp_path: Path) -> None:
+    gen = _run("generate", "jar/hinged_05", "--dir", str(tmp_path))
+    assert gen.returncode == 0, gen.stderr
+    db = GraspDB.load_dir(tmp_path)
+    assert db.keys == ("jar/hinged_05",) and len(db.grasps("jar/hinged_05")) == 24
+    assert all(g.status == "unvalidated" for g in db.grasps("jar/hinged_05"))
+    val = _run("validate", "--dir", str(tmp_path))
+    assert val.returncode == 0, val.stderr
+    assert "of 24 grasps valid" in val.stdout
+    checked = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
+    assert all(g.status in ("valid", "invalid") for g in checked)
+    assert all("lifted" in g.detail or "unreachable" in g.detail for g in checked)
+    assert sum(g.status == "valid" for g in checked) >= 20
+    listed = _run("list", "--dir", str(tmp_path))
+    assert "jar/hinged_05" in listed.stdout and "24" in listed.stdout
+    # regenerating keeps annotated grasps and replaces generated ones (and their results)
+    annotated = checked[0].__class__("mine", (0.0, 0.0, 0.06), (1.0, 0.0, 0.0, 0.0), "side", "annotated")
+    GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, *checked]).write_dir(tmp_path)
+    assert _run("generate", "jar/hinged_05", "--dir", str(tmp_path)).returncode == 0
+    again = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
+    assert again[0].id == "mine" and len(again) == 25
+    assert all(g.status == "unvalidated" for g in again)
+
+
+def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:
+    proc = _run("generate", "nothing/*", "--dir", str(tmp_path))
+    assert proc.returncode == 2 and "matches no object model" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    (tmp_path / "jar.json").write_text("{oops")
+    proc = _run("list", "--dir", str(tmp_path))
+    assert proc.returncode == 2 and "jar.json: not valid JSON" in proc.stderr
