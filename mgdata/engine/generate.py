@@ -33,9 +33,8 @@ from mgdata.errors import DatasetError, RecipeError
 from mgdata.paths import grasps_dir
 from mgdata.record import layout
 from mgdata.record.commit import work_dir
-from mgdata.record.episode import DatasetSchema, EpisodeMeta
+from mgdata.record.episode import EpisodeMeta
 from mgdata.record.writer import DatasetWriter
-from mgdata.spec import SafetySpec
 from mgdata.tasks.recipe import Recipe, load_recipe
 
 STATE_FILE = "meta/mgdata_generate.json"
@@ -77,12 +76,6 @@ def failed_path(out: Path) -> Path:
     return out.with_name(out.name + "_failed")
 
 
-def _open_writer(root: Path, schema: DatasetSchema, spec: SafetySpec, codec: str) -> DatasetWriter:
-    if (root / layout.INFO_PATH).exists() or (root / layout.WORK_DIR).exists():
-        return DatasetWriter.open(root, schema)
-    return DatasetWriter.create(root, schema, codec=codec, spec=spec)
-
-
 def _check_episodes(metas: list[EpisodeMeta], job: GenerateJob, root: Path) -> None:
     """Every episode already in the dataset must come from this family and this ``--seed``."""
     for m in metas:
@@ -115,14 +108,14 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     tasks = _tasks(job, recipe)
     schema = dataset_schema(recipe)
     out = Path(job.out)
-    writer = _open_writer(out, schema, recipe.spec, job.codec)
+    writer = DatasetWriter.open_or_create(out, schema, codec=job.codec, spec=recipe.spec)
     failed: DatasetWriter | None = None
     summary = RunSummary(out=out, target=job.n, kept_before=writer.num_episodes)
     start = time.perf_counter()
     try:
         neg_root = failed_path(out)
         if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
-            failed = _open_writer(neg_root, schema, recipe.spec, job.codec)
+            failed = DatasetWriter.open_or_create(neg_root, schema, codec=job.codec, spec=recipe.spec)
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
         state = RunState(job.family, job.seed, recipe.digest)
