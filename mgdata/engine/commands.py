@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated
 
@@ -34,7 +35,9 @@ def register(app: typer.Typer) -> None:
         tasks: Annotated[str, typer.Option(help="Base tasks, round-robin: 'all' or e.g. '0-3,7'.")] = "all",
         task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
         out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
-        workers: Annotated[int, typer.Option(help="Parallel attempt processes.")] = 1,
+        workers: Annotated[int | None, typer.Option(
+            help="Parallel attempt processes (default: one per CPU core; same output for any count).",
+            show_default=False)] = None,
         seed: Annotated[int, typer.Option(help="Seed mixed into every attempt's seed.")] = 0,
         keep_failed: Annotated[bool, typer.Option(help="Also keep failed/unsafe attempts, in <out>_failed.")]
         = False,
@@ -51,7 +54,8 @@ def register(app: typer.Typer) -> None:
         from mgdata.engine.summary import ProgressView, RunSummary, print_summary
 
         job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
-                          tasks=(task,) if task is not None else parse_ids(tasks), workers=workers, seed=seed,
+                          tasks=(task,) if task is not None else parse_ids(tasks),
+                          workers=workers or len(os.sched_getaffinity(0)), seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
         console = Console()
         with ProgressView(RunSummary(out=job.out, target=n), console) as view:
