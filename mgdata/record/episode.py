@@ -13,8 +13,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-STATE_NAMES: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8)) + ("gripper_opening",)
-ACTION_NAMES: tuple[str, ...] = tuple(f"joint{i}_target" for i in range(1, 8)) + ("gripper_command",)
+STATE_NAMES: tuple[str, ...] = (*(f"joint{i}" for i in range(1, 8)), "gripper_opening")
+ACTION_NAMES: tuple[str, ...] = (*(f"joint{i}_target" for i in range(1, 8)), "gripper_command")
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,9 @@ def _frozen(mapping: Mapping[str, Any] | None = None) -> Mapping[str, Any]:
 
 @dataclass(frozen=True)
 class ObjectPlacement:
-    """One object instance: ``name`` is its instance name in the scene (``"jar"``, ``"obstacle_0"``), ``model``
-    its asset-library name (``"jar/hinged_03"``). ``pos`` is the object frame's origin in the world (m) and
-    ``yaw`` its rotation about world +Z (rad); objects start upright.
+    """One object instance: ``name`` is its instance name in the scene (``"jar"``, ``"obstacle_0"``),
+    ``model`` its asset-library name (``"jar/hinged_03"``). ``pos`` is the object frame's origin in the world
+    (m) and ``yaw`` its rotation about world +Z (rad); objects start upright.
     """
 
     name: str
