@@ -14,13 +14,10 @@ Example::
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
-import signal
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +27,7 @@ from mgdata.engine.summary import RunSummary
 from mgdata.engine.variation import attempt_seed
 from mgdata.engine.workers import AttemptPool, WorkerConfig
 from mgdata.errors import DatasetError, RecipeError
+from mgdata.interrupts import sigint_deferred
 from mgdata.paths import grasps_dir
 from mgdata.record import layout
 from mgdata.record.commit import work_dir
@@ -140,28 +138,11 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         summary.stopped = "interrupted"
     finally:
         summary.wall = time.perf_counter() - start
-        with _sigint_deferred(reraise=False):
+        with sigint_deferred(reraise=False):
             writer.close()
             if failed is not None:
                 failed.close()
     return summary
-
-
-@contextlib.contextmanager
-def _sigint_deferred(reraise: bool = True) -> Iterator[None]:
-    """Hold Ctrl-C (SIGINT) until the block is done, then raise it (``reraise``) or forget it: an append or a
-    close is never cut in half."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught and reraise:
-        raise KeyboardInterrupt
 
 
 def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: int, writer: DatasetWriter,
@@ -181,7 +162,7 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                 done = pool.next_done()
                 result = done.result
                 t0 = time.perf_counter()
-                with _sigint_deferred():  # a commit and the cursor recording it happen together or not at all
+                with sigint_deferred():  # a commit and the cursor recording it happen together or not at all
                     if result.kept and done.staged is not None:
                         writer.append_staged(done.staged)
                     elif done.staged is not None and failed is not None and job.keep_failed:

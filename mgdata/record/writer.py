@@ -27,6 +27,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from mgdata.errors import DatasetError
+from mgdata.interrupts import sigint_deferred
 from mgdata.record import layout
 from mgdata.record.commit import Transaction, WriterLock, recover, sha256_file, work_dir
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, Frame
@@ -75,6 +76,7 @@ class DatasetWriter:
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
         self._stager: EpisodeStager | None = None
+        self._stale = False  # a commit failed half-way: memory no longer matches the disk
 
     # --- construction ------------------------------------------------------------------------------------
 
@@ -221,6 +223,8 @@ class DatasetWriter:
 
         Its videos are copied packet by packet (no re-encode). ``remove`` deletes the folder afterwards.
         """
+        if self._stale:
+            raise DatasetError(f"{self.root}: an earlier commit failed half-way; reopen it to recover")
         staged = StagedEpisode.load(Path(path))
         if staged.schema != self.schema:
             raise DatasetError(f"{path}: staged with schema {staged.schema}, the dataset has {self.schema}")
@@ -231,11 +235,10 @@ class DatasetWriter:
         tx = Transaction(self.root)
         try:
             state = self._commit_episode(staged, table, tx)
-            tx.commit()
         except BaseException:
             tx.abort()
             raise
-        self._apply(*state)
+        self._install(tx, state)
         if remove:
             shutil.rmtree(staged.path)
         return self._records[-1].index
@@ -320,6 +323,20 @@ class DatasetWriter:
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
         return record, tasks, values, staged.histograms, ep_table, new_info
 
+    def _install(self, tx: Transaction, state: tuple) -> None:
+        """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.
+
+        If the commit itself fails, the disk no longer matches what this writer holds: it refuses further
+        appends, ``close`` leaves ``info.json`` alone, and the next :meth:`open` recovers the committed state.
+        """
+        with sigint_deferred():
+            try:
+                tx.commit()
+            except BaseException:
+                self._stale = True
+                raise
+            self._apply(*state)
+
     def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
                hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict) -> None:
         self._records.append(record)
@@ -339,10 +356,11 @@ class DatasetWriter:
             return
         self.discard_episode()
         on_disk = read_info(self.root / layout.INFO_PATH)
-        if on_disk != self._info:
+        if on_disk != self._info and not self._stale:
             tx = Transaction(self.root)
             tx.path(layout.INFO_PATH).write_text(dump_json(self._info))
-            tx.commit()
+            with sigint_deferred():
+                tx.commit()
         self._lock.release()
         self._lock = None
         wdir = work_dir(self.root)

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import os
+import signal
 from pathlib import Path
 
+import pytest
+
 from mgdata.record.commit import FileView, Transaction, pending_dir, recover
+from mgdata.record.synthetic import SYNTHETIC_SPEC
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.record.conftest import SMALL, small_episodes, write_episodes
 
 
 def _tx(root: Path, text: str) -> Transaction:
@@ -60,3 +66,26 @@ def test_an_active_writer_is_told_apart_from_leftovers(small_dataset: Path) -> N
         assert validate_dataset(small_dataset).notes == [
             "a writer is appending to this dataset right now; validated up to its last commit"]
     assert not FileView(small_dataset).writer_active and validate_dataset(small_dataset).notes == []
+
+
+def test_ctrl_c_during_a_commit_lands_after_it(tmp_path: Path, monkeypatch) -> None:
+    """A Ctrl-C that arrives while an episode is being committed neither splits the commit nor leaves the
+    writer's memory behind the disk (``close`` would then write stale totals into info.json)."""
+    real_commit = Transaction.commit
+
+    def interrupted_commit(self: Transaction) -> None:
+        os.kill(os.getpid(), signal.SIGINT)  # delivered while the commit runs
+        real_commit(self)
+
+    root = tmp_path / "ds"
+    episodes = small_episodes()
+    writer = DatasetWriter.create(root, SMALL, spec=SYNTHETIC_SPEC)
+    write_episodes(writer, episodes[:1])
+    monkeypatch.setattr(Transaction, "commit", interrupted_commit)
+    with pytest.raises(KeyboardInterrupt):
+        write_episodes(writer, episodes[1:2])
+    monkeypatch.undo()
+    assert writer.num_episodes == 2  # the episode committed, and memory knows it
+    writer.close()
+    report = validate_dataset(root)
+    assert report.problems == [] and DatasetWriter.open(root).num_episodes == 2
