@@ -18,7 +18,7 @@ from mgdata.motion.types import JointTrajectory, Pose
 if TYPE_CHECKING:
     from mgdata.engine.variation import Variation
     from mgdata.grasps.db import Grasp
-    from mgdata.motion.planner import MotionPlanner
+    from mgdata.motion import MotionPlanner
     from mgdata.sim.scene import Scene
     from mgdata.tasks.taskspec import TaskSpec
 
