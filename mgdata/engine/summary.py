@@ -20,6 +20,7 @@ from rich.table import Table
 from mgdata.engine.executor import AttemptResult
 from mgdata.engine.gate import STAGES
 from mgdata.engine.timing import PHASES, Timings
+from mgdata.errors import MgdataError
 
 
 @dataclass
@@ -94,7 +95,9 @@ class ProgressView:
         self._progress.start()
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
+        if exc_type is not None and issubclass(exc_type, MgdataError):
+            self._progress.live.transient = True  # bad input: leave only the error line on screen
         self._progress.stop()
 
     def update(self, summary: RunSummary) -> None:
