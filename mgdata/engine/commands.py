@@ -70,7 +70,10 @@ def register(app: typer.Typer) -> None:
         episodes: Annotated[str, typer.Option(help="Episode indices, e.g. '0-2,5'.")] = "0-2",
         out: Annotated[Path | None, typer.Option(help="Output mp4 (default: <dataset>/preview.mp4).")] = None,
     ) -> None:
-        """Render an mp4 of some episodes: every camera in a grid, with the step's safety labels."""
+        """Render an mp4 of some episodes: every camera in a grid, with the step's safety labels.
+
+        Example: mgdata preview datasets/jar --episodes 0-2 --out jar_preview.mp4
+        """
         from mgdata.engine.preview import render_preview
 
         chosen = parse_ids(episodes, "--episodes")

@@ -34,13 +34,17 @@ def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
 
 
 def register(app: typer.Typer) -> None:
-    grasps = typer.Typer(help="Inspect, generate and validate the grasp database (grasps/*.json).",
+    grasps = typer.Typer(help="Inspect, generate and validate the grasp database (grasps/*.json).\n\n"
+                         "Example: mgdata grasps generate 'jar/*' && mgdata grasps validate 'jar/*'",
                          no_args_is_help=True)
     app.add_typer(grasps, name="grasps")
 
     @grasps.command("list")
     def list_(models: Models = None, directory: Dir = None) -> None:
-        """Grasp counts per model: total, valid, invalid, unvalidated."""
+        """Grasp counts per model: total, valid, invalid, unvalidated.
+
+        Example: mgdata grasps list 'jar/*'
+        """
         db = GraspDB.load_dir(directory or grasps_dir())
         keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
         table = Table("model", "grasps", "valid", "invalid", "unvalidated", "sources")
@@ -53,7 +57,10 @@ def register(app: typer.Typer) -> None:
     @grasps.command("generate")
     def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
                  directory: Dir = None) -> None:
-        """Generate candidate grasps from geometry (replaces generated grasps, keeps annotated ones)."""
+        """Generate candidate grasps from geometry (replaces generated grasps, keeps annotated ones).
+
+        Example: mgdata grasps generate 'jar/hinged_0*'
+        """
         from mgdata.grasps.candidates import candidates
         from mgdata.grasps.config import load_grasp_config
         from mgdata.sim.assets import get_model, model_names
@@ -75,7 +82,10 @@ def register(app: typer.Typer) -> None:
 
     @grasps.command("validate")
     def validate(models: Models = None, all_: All = False, directory: Dir = None) -> None:
-        """Check grasps in simulation (reach, close, lift) and record valid/invalid with the measurement."""
+        """Check grasps in simulation (reach, close, lift) and record valid/invalid with the measurement.
+
+        Example: mgdata grasps validate 'jar/*' --all
+        """
         from mgdata.grasps.check import check_grasp
         from mgdata.grasps.config import load_grasp_config
 
