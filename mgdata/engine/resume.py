@@ -15,13 +15,12 @@ Example::
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mgdata.atomic import write_text_atomic
 from mgdata.errors import DatasetError
 
 
@@ -125,18 +124,5 @@ class RunState:
                                "the dataset's episode table") from None
 
     def save(self, path: Path) -> None:
-        """Write atomically (tmp file + ``os.replace``)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        os.fchmod(fd, 0o644)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(self.to_json(), fh, indent=2)
-                fh.write("\n")
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        """Write atomically (readers never see a partial file)."""
+        write_text_atomic(Path(path), json.dumps(self.to_json(), indent=2) + "\n")

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -33,6 +31,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from mgdata.atomic import write_text_atomic
 from mgdata.errors import GraspDBError
 
 SCHEMA_VERSION = 1
@@ -130,7 +129,7 @@ class GraspDB:
         return cls.load(sorted(p for p in directory.glob("*.json") if p.name != "schema.json"))
 
     def write_dir(self, directory: Path) -> list[Path]:
-        """Write one file per category atomically (tmp file + ``os.replace``); returns the paths written."""
+        """Write one file per category atomically; returns the paths written."""
         directory = Path(directory)
         by_category: dict[str, dict[str, tuple[Grasp, ...]]] = {}
         for key in sorted(self.objects):
@@ -150,20 +149,7 @@ def write_file(path: Path, objects: Mapping[str, Iterable[Grasp]]) -> None:
         "convention": CONVENTION,
         "objects": {key: {"grasps": [_grasp_to_json(g) for g in objects[key]]} for key in sorted(objects)},
     }
-    text = json.dumps(doc, indent=2) + "\n"
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.fchmod(fd, 0o644)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text_atomic(Path(path), json.dumps(doc, indent=2) + "\n")
 
 
 def _grasp_to_json(g: Grasp) -> dict[str, Any]:

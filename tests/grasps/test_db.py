@@ -119,7 +119,7 @@ def test_atomic_write_leaves_old_file_on_failure(tmp_path: Path, monkeypatch: py
     def boom(src: str, dst: str) -> None:
         raise OSError("disk full")
 
-    monkeypatch.setattr("mgdata.grasps.db.os.replace", boom)
+    monkeypatch.setattr("mgdata.atomic.os.replace", boom)
     with pytest.raises(OSError):
         write_file(path, {"jar/hinged_00": [_grasp("new")]})
     assert path.read_bytes() == before
