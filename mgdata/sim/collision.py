@@ -10,12 +10,12 @@ is seeded, so a decomposition is deterministic.
 from __future__ import annotations
 
 import hashlib
-import os
 from dataclasses import asdict, dataclass
 from importlib.metadata import version
 
 import numpy as np
 
+from mgdata.atomic import save_npz_atomic
 from mgdata.paths import cache_dir
 from mgdata.sim.assets.model import Mesh
 
@@ -58,8 +58,5 @@ def convex_decomposition(verts: np.ndarray, faces: np.ndarray,
     mesh = coacd.Mesh(np.asarray(verts, dtype=np.float64), np.asarray(faces, dtype=np.int64))
     parts = coacd.run_coacd(mesh, **asdict(settings))
     hulls = [np.asarray(v, dtype=np.float64) for v, _ in parts]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, **{f"hull_{i:03d}": v for i, v in enumerate(hulls)})
-    os.replace(tmp, path)
+    save_npz_atomic(path, **{f"hull_{i:03d}": v for i, v in enumerate(hulls)})
     return [Mesh(v) for v in hulls]

@@ -10,11 +10,11 @@ version, so a cache hit is a file read and a changed mesh is never served stale.
 from __future__ import annotations
 
 import hashlib
-import os
 from pathlib import Path
 
 import numpy as np
 
+from mgdata.atomic import save_npz_atomic
 from mgdata.paths import cache_dir
 
 _ALGO_VERSION = "quadric-v2"
@@ -54,8 +54,5 @@ def decimated_mesh(source: Path, ratio: float = 0.1) -> tuple[np.ndarray, np.nda
         with np.load(path) as z:
             return z["verts"], z["faces"]
     verts, faces = _decimate(source, ratio)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, verts=verts, faces=faces)
-    os.replace(tmp, path)
+    save_npz_atomic(path, verts=verts, faces=faces)
     return verts, faces
