@@ -31,9 +31,7 @@ from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
 from mgdata.engine.timing import Timings
 from mgdata.engine.variation import draw_variation
 from mgdata.errors import SimulationError
-from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import GraspDB
-from mgdata.grasps.grip import GripConfig, apply_grip
 from mgdata.ltl import verdict
 from mgdata.motion import (
     Attachment,
@@ -141,18 +139,16 @@ class Executor:
         task: the task to demonstrate.
         recipe: its family recipe (gate, horizon, variation knobs, success predicate).
         grasps: the grasp database (the valid grasps of the task's object models go to the skeleton).
-        grip: the finger contact model (default: ``recipes/grasps.toml`` ``[grip]``).
         motion: motion tunables (default: ``recipes/motion.toml``).
         base_seed: the user seed mixed into every attempt seed.
         render: record camera images (off for quick planning-only runs and grasp checks).
     """
 
-    def __init__(self, task: TaskSpec, recipe: Recipe, *, grasps: GraspDB, grip: GripConfig | None = None,
+    def __init__(self, task: TaskSpec, recipe: Recipe, *, grasps: GraspDB,
                  motion: MotionConfig | None = None, base_seed: int = 0, render: bool = True) -> None:
         self.task, self.recipe, self.base_seed = task, recipe, base_seed
         self.skeleton: FamilySkeleton = skeleton_for(task.family)
         self.scene: Scene = build_scene(task)
-        apply_grip(self.scene.model, grip or load_grasp_config().grip)
         self.controller = JointController(self.scene)
         self.planner = MotionPlanner(self.scene.model, motion or load_motion_config())
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None

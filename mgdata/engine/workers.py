@@ -27,7 +27,6 @@ from types import TracebackType
 from typing import Any
 
 from mgdata.engine.executor import AttemptResult, Executor
-from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import GraspDB
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.video import VideoSettings
@@ -69,7 +68,6 @@ class Worker:
         self.recipe = load_recipe(config.recipe_path)
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
-        self.grip = load_grasp_config().grip
         self._executors: collections.OrderedDict[int, Executor] = collections.OrderedDict()
 
     def _executor(self, task_id: int) -> Executor:
@@ -78,7 +76,7 @@ class Worker:
             return self._executors[task_id]
         while len(self._executors) >= EXECUTOR_CACHE:
             self._executors.popitem(last=False)[1].close()
-        ex = Executor(base_task(self.recipe, task_id), self.recipe, grasps=self.grasps, grip=self.grip,
+        ex = Executor(base_task(self.recipe, task_id), self.recipe, grasps=self.grasps,
                       base_seed=self.config.base_seed)
         self._executors[task_id] = ex
         return ex

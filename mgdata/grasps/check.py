@@ -9,7 +9,7 @@ a straight lift, a short hold. The grasp is **valid** when the object rose by at
 
 Example::
 
-    status, detail = check_grasp("jar/hinged_03", grasp, GraspCheckConfig(), GripConfig())
+    status, detail = check_grasp("jar/hinged_03", grasp, GraspCheckConfig())
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.grasps.db import Grasp
-from mgdata.grasps.grip import GripConfig, apply_grip
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
@@ -77,10 +76,9 @@ def _fingers_touch(scene: Scene) -> bool:
     return all(f in touched for f in robot.FINGER_BODIES)
 
 
-def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig, grip: GripConfig) -> tuple[str, str]:
-    """Run the check with the grip contact model ``grip``; returns ``("valid" | "invalid", detail)``."""
+def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, str]:
+    """Run the check in a scene with the generator's physics; returns ``("valid" | "invalid", detail)``."""
     scene = build_scene(_check_task(model, grasp, cfg))
-    apply_grip(scene.model, grip)
     scene.reset()
     planner = MotionPlanner(scene.model, load_motion_config())
     planner.sync(scene.data)

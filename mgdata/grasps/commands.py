@@ -97,7 +97,7 @@ def register(app: typer.Typer) -> None:
             updated: list[Grasp] = []
             for g in db.grasps(key):
                 if g.status == "unvalidated" or all_:
-                    status, detail = check_grasp(key, g, settings.check, settings.grip)
+                    status, detail = check_grasp(key, g, settings.check)
                     g = g.with_status(status, detail)
                     typer.echo(f"{key} {g.id}: {status} ({detail})")
                 updated.append(g)

@@ -1,4 +1,7 @@
-"""Grasp tooling tunables from ``recipes/grasps.toml``: ``[candidates]``, ``[check]`` and ``[grip]``.
+"""Grasp tooling tunables from ``recipes/grasps.toml``: ``[candidates]`` and ``[check]``.
+
+The finger contact model both the check and the generator use is a property of the robot and the physics:
+``recipes/sim.toml`` (``mgdata.sim.robot``, ``mgdata.sim.world``).
 
 Every key is optional (the dataclass defaults apply); an unknown section or key, or a value of the wrong
 type, is a :class:`~mgdata.errors.RecipeError` naming the file and key.
@@ -15,19 +18,17 @@ from typing import Any
 from mgdata.errors import RecipeError
 from mgdata.grasps.candidates import CandidateConfig
 from mgdata.grasps.check import GraspCheckConfig
-from mgdata.grasps.grip import GripConfig
 from mgdata.paths import recipes_dir
 
-_SECTIONS: dict[str, type] = {"candidates": CandidateConfig, "check": GraspCheckConfig, "grip": GripConfig}
+_SECTIONS: dict[str, type] = {"candidates": CandidateConfig, "check": GraspCheckConfig}
 
 
 @dataclass(frozen=True)
 class GraspSettings:
-    """``recipes/grasps.toml``: candidate generation, the in-simulation check, the grip contact model."""
+    """``recipes/grasps.toml``: candidate generation and the in-simulation check."""
 
     candidates: CandidateConfig
     check: GraspCheckConfig
-    grip: GripConfig
 
 
 def load_grasp_config(path: Path | None = None) -> GraspSettings:
@@ -42,6 +43,9 @@ def load_grasp_config(path: Path | None = None) -> GraspSettings:
     elif path is not None:
         raise RecipeError(f"grasp settings file {file} does not exist")
     unknown = sorted(set(raw) - set(_SECTIONS))
+    if "grip" in unknown:
+        raise RecipeError(f"{file}: [grip] is no longer a grasp setting: the finger contact model is part of "
+                          "the robot and physics, in recipes/sim.toml")
     if unknown:
         raise RecipeError(f"{file}: unknown section(s) {unknown}; expected {sorted(_SECTIONS)}")
     out = {}

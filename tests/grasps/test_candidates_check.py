@@ -7,7 +7,6 @@ import numpy as np
 from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
 from mgdata.grasps.check import GraspCheckConfig, check_grasp
 from mgdata.grasps.db import Grasp
-from mgdata.grasps.grip import GripConfig
 from mgdata.sim.assets import get_model, model_names
 
 
@@ -44,10 +43,10 @@ def test_top_grasps_only_for_narrow_objects() -> None:
 def test_check_accepts_a_good_grasp_and_rejects_a_bad_one() -> None:
     model = "jar/hinged_00"
     good = next(g for g in candidates(get_model(model), CandidateConfig()) if g.id == "side_180_r1")
-    status, detail = check_grasp(model, good, GraspCheckConfig(), GripConfig())
+    status, detail = check_grasp(model, good, GraspCheckConfig())
     assert status == "valid", detail
     assert "lifted" in detail
     # the same pose 10 cm higher, above the jar, closes on air
     high = Grasp("too_high", (good.pos[0], good.pos[1], good.pos[2] + 0.10), good.quat, "side", "annotated")
-    status, detail = check_grasp(model, high, GraspCheckConfig(), GripConfig())
+    status, detail = check_grasp(model, high, GraspCheckConfig())
     assert status == "invalid" and "fingers touch: False" in detail
