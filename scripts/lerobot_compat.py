@@ -1,13 +1,16 @@
 """The real-LeRobot oracle, in two halves run by ``scripts/check_lerobot_compat.sh``:
 
 ``generate WORK`` (mgdata's venv): writes a v3.0 dataset with mgdata's writer (5 cameras at 256², moving
-shapes, labelled negatives included), its smolvla view and v2.1 / pi0 exports, and ground-truth frames.
+shapes, labelled negatives included), its smolvla view and v2.1 / pi0 exports, and ground-truth frames; and a
+real jar dataset with ``mgdata generate`` (2 kept demos, with labelled negatives) plus frames decoded by
+mgdata's own reader.
 
 ``check WORK`` (the lerobot venv, offline): loads them with ``LeRobotDataset(..., video_backend="pyav")`` and
 checks shapes, dtypes, decoded frames against the recorded ones (PSNR >= 30 dB), ``delta_timestamps``, a
 ``DataLoader`` epoch, normalisation with ``meta.stats`` through LeRobot's own ``NormalizerProcessorStep``,
-the v2.1 exports through LeRobot's ``convert_dataset_v21_to_v30``. Prints one line per check; exit 1 if any
-fails.
+the v2.1 exports through LeRobot's ``convert_dataset_v21_to_v30``; and the generated jar dataset: every
+frame count, the safety columns, frames identical to mgdata's reader, a ``DataLoader`` epoch. Prints one line
+per check; exit 1 if any fails.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import numpy as np
 EPISODES = 6
 LENGTH = 60
 TRUTH_EVERY = 7  # ground-truth frames kept: every 7th step of every episode and camera
+JAR_TRUTH_EVERY = 25  # the generated jar dataset: every 25th frame, decoded by mgdata's reader
 
 
 def generate(work: Path) -> None:
@@ -48,7 +52,23 @@ def generate(work: Path) -> None:
     export_dataset(work / "v30", work / "v21" / "mgdata_v21", "v2.1")
     export_dataset(work / "v30", work / "v21" / "mgdata_pi0", "pi0", overview="left")
 
+    generate_jar(work / "jar")
     print(f"generated datasets in {work}")
+
+
+def generate_jar(out: Path) -> None:
+    """A real ``mgdata generate`` dataset, and frames of it decoded by mgdata's reader to compare against."""
+    from mgdata.engine.generate import GenerateJob
+    from mgdata.engine.generate import generate as run
+    from mgdata.record.reader import DatasetReader
+
+    summary = run(GenerateJob(family="jar", n=2, out=out, tasks=(0, 1), workers=1, keep_failed=True))
+    if summary.total_kept < 2:
+        sys.exit(f"mgdata generate kept {summary.total_kept} of 2 jar demos: {summary.stopped}")
+    reader = DatasetReader(out)
+    truth = {f"{i}/{cam}": reader.frames(i, cam)[::JAR_TRUTH_EVERY]
+             for i in range(reader.num_episodes) for cam in reader.schema.cameras}
+    np.savez_compressed(out.with_name("jar_truth.npz"), **truth)
 
 
 class Checks:
@@ -157,8 +177,39 @@ def check(work: Path) -> int:
         except Exception as err:  # report and continue: this is a test harness
             ok(f"v2.1 export {name} via LeRobot's v2.1->v3.0 converter", False, repr(err))
 
+    check_jar(work, ok)
     print(f"{ok.failed} check(s) failed" if ok.failed else "all checks passed")
     return 1 if ok.failed else 0
+
+
+def check_jar(work: Path, ok: Checks) -> None:
+    """The dataset ``mgdata generate`` wrote: loads, safety columns, frames as mgdata decodes them."""
+    import torch
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root = work / "jar"
+    info = json.loads((root / "meta/info.json").read_text())
+    ds = LeRobotDataset("mgdata/jar", root=root, video_backend="pyav")
+    n_props = len(info["features"]["safety.labels"]["names"])
+    item = ds[0]
+    ok("generated jar dataset loads", len(ds) == info["total_frames"] and ds.num_episodes == 2
+       and tuple(item["safety.labels"].shape) == (n_props,) and item["task"].startswith("Close the lid"),
+       f"{len(ds)} frames, {ds.num_episodes} episodes, {n_props} propositions, task {item['task']!r}")
+    truth = np.load(work / "jar_truth.npz")
+    starts = ds.meta.episodes["dataset_from_index"]
+    worst, compared = float("inf"), 0
+    for key in truth.files:
+        ep, cam = key.split("/")
+        for j, expected in enumerate(truth[key]):
+            frame = ds[int(starts[int(ep)]) + j * JAR_TRUTH_EVERY][f"observation.images.{cam}"]
+            decoded = (frame.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
+            worst = min(worst, _psnr(decoded, expected))
+            compared += 1
+    ok("generated jar frames == mgdata reader's (same timestamps)", worst >= 50.0,
+       f"{'identical' if worst == float('inf') else f'min {worst:.1f} dB'} over {compared} frames")
+    loader = torch.utils.data.DataLoader(ds, batch_size=64, num_workers=2)
+    seen = sum(batch["action"].shape[0] for batch in loader)
+    ok("generated jar DataLoader epoch", seen == len(ds), f"{seen} samples")
 
 
 if __name__ == "__main__":
