@@ -193,5 +193,5 @@ class Recorder:
     def _hold_action(self) -> np.ndarray:
         """The action that holds the current state (for an episode with no actions)."""
         ctrl = self.scene.data.ctrl[robot.arm_actuator_ids(self.scene.model)]
-        closed = ctrl[7] < (robot.GRIPPER_OPEN_CTRL + robot.GRIPPER_CLOSED_CTRL) / 2.0
+        closed = self.scene.gripper.is_closed(ctrl[7])
         return np.array([*ctrl[:7], 1.0 if closed else 0.0], dtype=np.float32)

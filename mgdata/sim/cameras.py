@@ -2,37 +2,79 @@
 
 The third-person views follow the reference implementation's robot-frame views (reference §7), with
 ``fwd`` the robot's facing direction (+X rotated by the base yaw) and ``left`` = +Y rotated likewise; each
-looks at the workspace point ``base + 0.45·fwd + 0.05·z``:
+looks at the workspace point ``base + 0.45·fwd + 0.22·z``. The shipped placements (:class:`CameraLayout`,
+``recipes/sim.toml`` ``[cameras]``; (fwd, left, up) offsets from the base):
 
 * ``front``    (the reference's "opposite"): ``base + 1.65·fwd + 0.9·z``, facing the robot;
 * ``left`` / ``right``: ``base ± 1.0·left + 0.2·fwd + 0.9·z``;
 * ``shoulder`` (left shoulder): ``base − 0.43·fwd + 0.55·left + 0.9·z``;
 * ``wrist``: on the hand, beside the fingers, looking along the approach axis (hand +Z) past the fingertips.
+
+The camera names are a contract (observations list them); only their placement is tunable.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
+
+from mgdata.errors import RecipeError
 
 THIRD_PERSON: tuple[str, ...] = ("front", "left", "right", "shoulder")
 WRIST = "wrist"
 CAMERA_NAMES: tuple[str, ...] = (*THIRD_PERSON, WRIST)
 """All cameras, in the order observations list them."""
 
-FOVY_DEG = 58.0
-WRIST_FOVY_DEG = 75.0
-WORKSPACE_OFFSET = (0.45, 0.0, 0.22)
-"""The point the third-person cameras look at, in the robot base frame (fwd, left, up)."""
-_EYES = {
-    "front": (1.65, 0.0, 0.9),
-    "left": (0.2, 1.0, 0.9),
-    "right": (0.2, -1.0, 0.9),
-    "shoulder": (-0.43, 0.55, 0.9),
-}
-_WRIST_EYE = (0.08, 0.0, 0.0)
-_WRIST_TARGET = (0.0, 0.0, 0.22)
-"""Wrist camera eye and look-at point in the hand frame (hand +Z: approach axis; fingers open along Y)."""
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class CameraLayout:
+    """Where the cameras sit and how wide they see (``recipes/sim.toml`` ``[cameras]``).
+
+    Attributes:
+        fovy, wrist_fovy: vertical field of view of the third-person cameras and of the wrist camera (deg).
+        look_at: the point the third-person cameras look at, in the robot base frame (fwd, left, up; m).
+        front, left, right, shoulder: each third-person camera's eye in the robot base frame (m).
+        wrist_eye, wrist_target: the wrist camera's eye and look-at point in the hand frame (hand +Z: the
+            approach axis; the fingers open along Y).
+        image_size: default image side (pixels) where a recipe or task does not set one.
+    """
+
+    fovy: float = 58.0
+    wrist_fovy: float = 75.0
+    look_at: Vec3 = (0.45, 0.0, 0.22)
+    front: Vec3 = (1.65, 0.0, 0.9)
+    left: Vec3 = (0.2, 1.0, 0.9)
+    right: Vec3 = (0.2, -1.0, 0.9)
+    shoulder: Vec3 = (-0.43, 0.55, 0.9)
+    wrist_eye: Vec3 = (0.08, 0.0, 0.0)
+    wrist_target: Vec3 = (0.0, 0.0, 0.22)
+    image_size: int = 256
+
+    def __post_init__(self) -> None:
+        for key in ("fovy", "wrist_fovy"):
+            if not 0.0 < getattr(self, key) < 180.0:
+                raise RecipeError(f"[cameras] {key} = {getattr(self, key)!r}: expected degrees in (0, 180)")
+        if self.image_size < 8:
+            raise RecipeError(f"[cameras] image_size = {self.image_size!r}: expected an integer >= 8")
+        for key in THIRD_PERSON:
+            view = np.subtract(self.look_at, getattr(self, key))
+            if np.hypot(view[0], view[1]) < 1e-6:
+                raise RecipeError(f"[cameras] {key} = {list(getattr(self, key))}: the camera must not stand "
+                                  f"straight above or below look_at = {list(self.look_at)}")
+        view = np.subtract(self.wrist_target, self.wrist_eye)
+        if np.hypot(view[1], view[2]) < 1e-6:
+            raise RecipeError(f"[cameras] wrist_target = {list(self.wrist_target)}: expected a point away "
+                              f"from wrist_eye = {list(self.wrist_eye)}, not along the hand's X axis")
+
+    def eye(self, name: str) -> Vec3:
+        """The eye of third-person camera ``name`` in the robot base frame."""
+        if name not in THIRD_PERSON:
+            raise ValueError(f"{name!r} is not a third-person camera; expected one of {THIRD_PERSON}")
+        return getattr(self, name)
 
 
 def look_at_quat(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -54,13 +96,15 @@ def base_frame(base: tuple[float, float, float], yaw: float) -> tuple[np.ndarray
     return np.asarray(base, dtype=np.float64), np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def add_cameras(spec: mujoco.MjSpec, base: tuple[float, float, float], yaw: float, hand_body: str) -> None:
+def add_cameras(spec: mujoco.MjSpec, base: tuple[float, float, float], yaw: float, hand_body: str,
+                layout: CameraLayout) -> None:
     """Add the five cameras to ``spec`` (third-person ones in the world, ``wrist`` on ``hand_body``)."""
     pos, rot = base_frame(base, yaw)
-    target = pos + rot @ np.array(WORKSPACE_OFFSET)
+    target = pos + rot @ np.array(layout.look_at)
     for name in THIRD_PERSON:
-        eye = pos + rot @ np.array(_EYES[name])
+        eye = pos + rot @ np.array(layout.eye(name))
         quat = look_at_quat(eye, target, np.array([0.0, 0.0, 1.0]))
-        spec.worldbody.add_camera(name=name, pos=eye.tolist(), quat=quat.tolist(), fovy=FOVY_DEG)
-    quat = look_at_quat(np.array(_WRIST_EYE), np.array(_WRIST_TARGET), np.array([1.0, 0.0, 0.0]))
-    spec.body(hand_body).add_camera(name=WRIST, pos=list(_WRIST_EYE), quat=quat.tolist(), fovy=WRIST_FOVY_DEG)
+        spec.worldbody.add_camera(name=name, pos=eye.tolist(), quat=quat.tolist(), fovy=layout.fovy)
+    quat = look_at_quat(np.array(layout.wrist_eye), np.array(layout.wrist_target), np.array([1.0, 0.0, 0.0]))
+    spec.body(hand_body).add_camera(name=WRIST, pos=list(layout.wrist_eye), quat=quat.tolist(),
+                                    fovy=layout.wrist_fovy)

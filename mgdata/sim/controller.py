@@ -34,6 +34,7 @@ class JointController:
         self._lo = model.actuator_ctrlrange[self._act[:7], 0].copy()
         self._hi = model.actuator_ctrlrange[self._act[:7], 1].copy()
         self._substeps = scene.physics.substeps
+        self._gripper = scene.gripper
         self.last_action = np.zeros(8, dtype=np.float32)
 
     def apply(self, action: np.ndarray) -> None:
@@ -47,7 +48,7 @@ class JointController:
             raise MgdataError(f"action must be 8 finite numbers (7 joint targets + gripper), got {action!r}")
         ctrl = self.scene.data.ctrl
         ctrl[self._act[:7]] = np.clip(a[:7], self._lo, self._hi)
-        ctrl[self._act[7]] = robot.gripper_ctrl(a[7])
+        ctrl[self._act[7]] = self._gripper.ctrl(a[7])
         self.last_action = a.astype(np.float32)
 
     def step(self) -> None:

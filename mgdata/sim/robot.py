@@ -6,23 +6,23 @@ points at another copy. Element names are kept exactly as in ``panda.xml``: join
 ``finger_joint1/2``, actuators ``actuator1..7`` and ``gripper``, site ``TCP``, bodies ``link0..link7``,
 ``hand``, ``left_finger``, ``right_finger`` (the root body is ``base``).
 
-Changes made on load (:func:`load_panda_spec`):
+Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperConfig`, read from
+``recipes/sim.toml`` ``[gripper]``):
 
 * gripper retuned for a ~20 N squeeze: the stock tendon servo pushes with ``50·ctrl − 100·length`` and gives
-  ~1 N on a 4 cm object, so objects slip. The "closed" command
-  ``GRIPPER_CLOSED_CTRL = -0.4`` aims beyond closed: the tendon pushes ≈ 22 N on a 4–7 cm object, i.e. a
-  normal force of ≈ 11 N per finger (measured in tests/sim/test_predicates.py), with the bias velocity term
-  raised to −100 to damp the fingers (probe-sim-stack.md §8). That damping alone would make opening take
-  seconds, so "open" (``GRIPPER_OPEN_CTRL = 0.25``) likewise aims beyond fully open; the control range is
-  ``[-1, 1]``;
+  ~1 N on a 4 cm object, so objects slip. The "closed" command ``closed_ctrl = -0.4`` aims beyond closed:
+  the tendon pushes ≈ 22 N on a 4–7 cm object, i.e. a normal force of ≈ 11 N per finger (measured in
+  tests/sim/test_predicates.py), with the bias velocity term raised to −100 (``damping``) to damp the fingers
+  (probe-sim-stack.md §8). That damping alone would make opening take seconds, so "open" (``open_ctrl =
+  0.25``) likewise aims beyond fully open; the control range is ``[-1, 1]``;
 * finger pads that hold what they squeeze (the grip contact model): MuJoCo's default contacts (``condim=3``)
   resist sliding but not spinning about the contact normal. A side grasp squeezes an object between two
   contacts whose normals lie on one line, so nothing resists the object pivoting about that line, and a jar
   swings down in the fingers when the arm accelerates (measured: up to 50° of tilt on a 10 cm lift). Real
   finger pads have a contact patch that resists that torque; the finger geoms get ``condim = 4`` with a
-  torsional friction coefficient (``FINGER_CONDIM``, ``FINGER_TORSIONAL_FRICTION``) to model it. (The
+  torsional friction coefficient (``finger_condim``, ``finger_torsional_friction``) to model it. (The
   elliptic friction cone that stops a held jar creeping out of the fingers is a world option:
-  ``mgdata.sim.world``.) Every scene built on this model (generator, grasp check, teleop) gets it;
+  ``mgdata.sim.world.Physics``.) Every scene built on this model (generator, grasp check, teleop) gets it;
 * visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
 * the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.
 
@@ -37,12 +37,13 @@ Example::
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from mgdata.errors import RobotModelError
+from mgdata.errors import RecipeError, RobotModelError
 from mgdata.sim.meshcache import decimated_mesh
 
 ARM_JOINTS: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
@@ -63,23 +64,65 @@ VMAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
 AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 """Joint acceleration limits (rad/s²), Panda datasheet."""
 
-GRIPPER_OPEN_CTRL = 0.25
-"""Gripper actuator control for "open": a target beyond fully open (fingers stop at their 0.04 m limits), so
-opening takes ~0.3 s instead of the stock servo's 1 s time constant."""
-GRIPPER_CLOSED_CTRL = -0.4
-"""Gripper actuator control for "closed": a target beyond closed that squeezes ~20 N."""
 GRIPPER_MAX_OPENING = 0.08
 """Distance between the fingers when fully open (m) = sum of the two finger joints."""
-
-FINGER_CONDIM = 4
-"""Contact dimension of the finger geoms: 3 sliding friction only; 4 adds torsional friction."""
-FINGER_TORSIONAL_FRICTION = 0.02
-"""Torsional friction coefficient of the finger pads (m)."""
 
 VISUAL_DECIMATION = 0.1
 """Fraction of faces kept in the Panda's visual meshes."""
 
 _ENV = "MGDATA_PANDA_XML"
+
+
+@dataclass(frozen=True)
+class GripperConfig:
+    """The gripper servo's retuning and the finger pads' contact model (``recipes/sim.toml`` ``[gripper]``).
+
+    Attributes:
+        open_ctrl: actuator control for "open": a target beyond fully open (the fingers stop at their 0.04 m
+            limits), so opening takes ~0.3 s instead of the stock servo's 1 s time constant.
+        closed_ctrl: actuator control for "closed": a target beyond closed that squeezes ~20 N.
+        ctrl_range: the gripper actuator's control range; holds both commands.
+        damping: velocity gain of the servo's bias (``biasprm[2] = -damping``).
+        finger_condim: contact dimension of the finger geoms: 3 sliding friction only, 4 adds torsional
+            friction (6 rolling too).
+        finger_torsional_friction: torsional friction coefficient of the finger pads (m).
+    """
+
+    open_ctrl: float = 0.25
+    closed_ctrl: float = -0.4
+    ctrl_range: tuple[float, float] = (-1.0, 1.0)
+    damping: float = 100.0
+    finger_condim: int = 4
+    finger_torsional_friction: float = 0.02
+
+    def __post_init__(self) -> None:
+        lo, hi = self.ctrl_range
+        if not lo < hi:
+            raise RecipeError(f"[gripper] ctrl_range = {list(self.ctrl_range)}: expected [low, high] with "
+                              "low < high")
+        for key in ("open_ctrl", "closed_ctrl"):
+            if not lo <= getattr(self, key) <= hi:
+                raise RecipeError(f"[gripper] {key} = {getattr(self, key)!r}: expected a value in ctrl_range "
+                                  f"[{lo}, {hi}]")
+        if not self.closed_ctrl < self.open_ctrl:
+            raise RecipeError(f"[gripper] closed_ctrl = {self.closed_ctrl!r}: expected less than open_ctrl "
+                              f"= {self.open_ctrl!r} (a lower control closes the fingers)")
+        if self.damping < 0:
+            raise RecipeError(f"[gripper] damping = {self.damping!r}: expected a number >= 0")
+        if self.finger_condim not in (3, 4, 6):
+            raise RecipeError(f"[gripper] finger_condim = {self.finger_condim!r}: expected 3, 4 or 6")
+        if self.finger_torsional_friction < 0:
+            raise RecipeError(f"[gripper] finger_torsional_friction = {self.finger_torsional_friction!r}: "
+                              "expected a number >= 0")
+
+    def ctrl(self, command: float) -> float:
+        """Map a gripper command (0 open … 1 closed, clipped) to the gripper actuator's control value."""
+        c = min(max(float(command), 0.0), 1.0)
+        return self.open_ctrl + c * (self.closed_ctrl - self.open_ctrl)
+
+    def is_closed(self, ctrl: float) -> bool:
+        """Whether an actuator control value is nearer "closed" than "open"."""
+        return ctrl < (self.open_ctrl + self.closed_ctrl) / 2.0
 
 
 def panda_xml_path() -> Path:
@@ -123,12 +166,19 @@ def _decimate_visuals(spec: mujoco.MjSpec, xml: Path, ratio: float) -> None:
         mesh.userface = faces.ravel().tolist()
 
 
-def load_panda_spec(*, decimate_visuals: bool = True) -> mujoco.MjSpec:
+def load_panda_spec(*, decimate_visuals: bool = True, gripper: GripperConfig | None = None) -> mujoco.MjSpec:
     """Load the Panda as an ``MjSpec``, gripper and finger pads retuned (root body ``base`` at the origin).
+
+    ``gripper`` defaults to ``recipes/sim.toml`` ``[gripper]``.
 
     Raises:
         RobotModelError: the MJCF is missing or does not parse, or lacks an element mgdata relies on.
+        RecipeError: ``recipes/sim.toml`` is invalid.
     """
+    if gripper is None:
+        from mgdata.sim.config import load_sim_config  # the config module imports this one
+
+        gripper = load_sim_config().gripper
     xml = panda_xml_path()
     try:
         spec = mujoco.MjSpec.from_file(str(xml))
@@ -140,26 +190,20 @@ def load_panda_spec(*, decimate_visuals: bool = True) -> mujoco.MjSpec:
             if getattr(spec, kind)(name) is None:
                 raise RobotModelError(f"Panda MJCF {xml} has no {kind} named {name!r}")
     grip = spec.actuator(GRIPPER_ACTUATOR)
-    grip.ctrlrange = [-1.0, 1.0]
+    grip.ctrlrange = list(gripper.ctrl_range)
     bias = list(grip.biasprm)
-    bias[2] = -100.0
+    bias[2] = -gripper.damping
     grip.biasprm = bias
     for body in FINGER_BODIES:
         for geom in spec.body(body).geoms:
             if geom.contype or geom.conaffinity:
-                geom.condim = FINGER_CONDIM
-                geom.friction = [geom.friction[0], FINGER_TORSIONAL_FRICTION, geom.friction[2]]
+                geom.condim = gripper.finger_condim
+                geom.friction = [geom.friction[0], gripper.finger_torsional_friction, geom.friction[2]]
     for site in spec.body(ROOT_BODY).sites:
         site.group = 4
     if decimate_visuals:
         _decimate_visuals(spec, xml, VISUAL_DECIMATION)
     return spec
-
-
-def gripper_ctrl(command: float) -> float:
-    """Map a gripper command (0 open … 1 closed, clipped) to the gripper actuator's control value."""
-    c = min(max(float(command), 0.0), 1.0)
-    return GRIPPER_OPEN_CTRL + c * (GRIPPER_CLOSED_CTRL - GRIPPER_OPEN_CTRL)
 
 
 def robot_body_ids(model: mujoco.MjModel) -> np.ndarray:

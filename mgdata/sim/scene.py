@@ -15,6 +15,7 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from types import MappingProxyType
 
@@ -24,6 +25,7 @@ import numpy as np
 from mgdata.errors import SceneError
 from mgdata.sim import robot
 from mgdata.sim.assets import ObjectModel
+from mgdata.sim.config import SimConfig, load_sim_config
 from mgdata.sim.particles import WIPER_CATEGORY, DustField, LiquidSet
 from mgdata.sim.world import FLOOR_Z, Physics, assemble_spec
 from mgdata.tasks.taskspec import TaskSpec
@@ -41,7 +43,9 @@ class Scene:
     Attributes:
         model, data: the MuJoCo model and its data.
         task: the TaskSpec it was built from.
-        physics: timestep and control period.
+        sim: the Layer 1 settings it was built with (``recipes/sim.toml``).
+        physics: timestep and control period (``sim.physics``).
+        gripper: the gripper's commands and finger contact model (``sim.gripper``).
         objects: instance name -> ObjectModel, in task order.
         object_names: instance names in task order.
         owners: ``("floor", "table", "robot", *object_names)``; ``geom_owner`` indexes it (−1: no owner).
@@ -53,11 +57,13 @@ class Scene:
     """
 
     def __init__(self, task: TaskSpec, model: mujoco.MjModel, objects: Mapping[str, ObjectModel],
-                 physics: Physics) -> None:
+                 sim: SimConfig) -> None:
         self.task = task
         self.model = model
         self.data = mujoco.MjData(model)
-        self.physics = physics
+        self.sim = sim
+        self.physics: Physics = sim.physics
+        self.gripper = sim.gripper
         self.objects: Mapping[str, ObjectModel] = MappingProxyType(dict(objects))
         self.object_names: tuple[str, ...] = tuple(objects)
         self.owners: tuple[str, ...] = ("floor", "table", "robot", *self.object_names)
@@ -107,7 +113,7 @@ class Scene:
         mujoco.mj_resetData(m, d)  # free objects start at their body poses (= placements)
         d.qpos[self._arm_q] = robot.HOME_Q
         d.qpos[self._finger_q] = robot.GRIPPER_MAX_OPENING / 2.0
-        d.ctrl[robot.arm_actuator_ids(m)] = [*robot.HOME_Q, robot.gripper_ctrl(0.0)]
+        d.ctrl[robot.arm_actuator_ids(m)] = [*robot.HOME_Q, self.gripper.ctrl(0.0)]
         for name, (art, adr) in self._art.items():
             d.qpos[adr] = art.value(self.task.articulation.get(name, 0.0))
         mujoco.mj_forward(m, d)
@@ -205,18 +211,22 @@ class Scene:
         return float(self.data.qpos[self._finger_q].sum())
 
 
-def build_scene(task: TaskSpec, physics: Physics | None = None) -> Scene:
-    """Build, check and settle the scene of ``task``.
+def build_scene(task: TaskSpec, physics: Physics | None = None, *, sim: SimConfig | None = None) -> Scene:
+    """Build, check and settle the scene of ``task`` with the settings ``sim`` (default:
+    ``recipes/sim.toml``); ``physics``, if given, replaces its physics.
 
     Raises:
         SceneError: bad instance names, overlapping initial poses, misplaced liquid, bad goal or articulation.
         AssetError: an unknown object model.
         RobotModelError: the Panda MJCF is missing.
+        RecipeError: ``recipes/sim.toml`` is invalid.
     """
-    physics = physics or Physics()
-    spec, objects = assemble_spec(task, physics)
+    sim = sim or load_sim_config()
+    if physics is not None:
+        sim = dataclasses.replace(sim, physics=physics)
+    spec, objects = assemble_spec(task, sim)
     try:
         model = spec.compile()
     except ValueError as exc:
         raise SceneError(f"task {task.family}/{task.task_id}: MuJoCo rejected the scene: {exc}") from exc
-    return Scene(task, model, objects, physics)
+    return Scene(task, model, objects, sim)

@@ -1,4 +1,5 @@
-"""Assembling a task's MjSpec: robot, table, floor, lights, objects, goal marker, cameras, physics options.
+"""Assembling a task's MjSpec: robot, table, floor, lights, objects, goal marker, cameras, physics options
+(the tunable ones from ``recipes/sim.toml``, :mod:`mgdata.sim.config`).
 
 World conventions (the contract other layers code against):
 
@@ -14,16 +15,20 @@ World conventions (the contract other layers code against):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
-from mgdata.errors import SceneError
+from mgdata.errors import RecipeError, SceneError
 from mgdata.sim import robot
 from mgdata.sim.assets import ObjectModel, get_model
 from mgdata.sim.cameras import add_cameras
 from mgdata.sim.particles import add_particles, particle_models
 from mgdata.tasks.taskspec import TaskSpec
+
+if TYPE_CHECKING:
+    from mgdata.sim.config import SimConfig  # which imports this module
 
 TABLE_TOP_Z = 0.0
 TABLE_HEIGHT = 0.75
@@ -34,27 +39,70 @@ TABLE_THICKNESS = 0.04
 RESERVED_NAMES = frozenset({"table", "floor", "goal", "world", *robot.ROBOT_LINKS, robot.ROOT_BODY})
 
 
+_INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+                "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+                "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+_SOLVERS = {"PGS": mujoco.mjtSolver.mjSOL_PGS, "CG": mujoco.mjtSolver.mjSOL_CG,
+            "Newton": mujoco.mjtSolver.mjSOL_NEWTON}
+_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+
+
 @dataclass(frozen=True)
 class Physics:
-    """Simulation rates and solver settings (documented in docs/sim.md).
+    """Simulation rates and solver settings (``recipes/sim.toml`` ``[physics]``; documented in docs/sim.md).
 
     ``timestep`` 2 ms (500 Hz) keeps 20 N friction grasps and the hinged lid stable and still runs far faster
-    than real time; 25 physics steps make one 20 Hz control period. Every scene uses elliptic friction
-    cones, the setting MuJoCo recommends for grasping: with the default pyramidal cones a held jar creeps
-    slowly out of the fingers while it is carried (measured: 5 of 10 carries lost the jar; 0 of 10 with
-    elliptic cones). Together with the finger pads' torsional friction (``mgdata.sim.robot``) this is the
-    grip contact model. Scenes with liquid particles switch to the CG solver, the only setting that is both
-    stable and near real time with 50–100 spheres (probe-sim-stack.md §7).
+    than real time; 25 physics steps make one 20 Hz control period (``control_dt``). A new scene settles for
+    ``settle_time`` with the robot at home. Every scene uses elliptic friction cones (``cone``), the setting
+    MuJoCo recommends for grasping: with the default pyramidal cones a held jar creeps slowly out of the
+    fingers while it is carried (measured: 5 of 10 carries lost the jar; 0 of 10 with elliptic cones).
+    Together with the finger pads' torsional friction (``mgdata.sim.robot.GripperConfig``) this is the grip
+    contact model. Scenes with liquid particles switch to the CG solver (``liquid_solver``,
+    ``liquid_iterations``), the only setting that is both stable and near real time with 50–100 spheres
+    (probe-sim-stack.md §7). Solver, integrator and cone are MuJoCo's names (``implicitfast``, ``Newton``…).
     """
 
     timestep: float = 0.002
     control_dt: float = 0.05
     settle_time: float = 0.3
+    integrator: str = "implicitfast"
+    solver: str = "Newton"
+    iterations: int = 100
+    impratio: float = 10.0
+    cone: str = "elliptic"
+    liquid_solver: str = "CG"
     liquid_iterations: int = 30
+
+    def __post_init__(self) -> None:
+        for key in ("timestep", "control_dt", "impratio", "iterations", "liquid_iterations"):
+            if not getattr(self, key) > 0:
+                raise RecipeError(f"[physics] {key} = {getattr(self, key)!r}: expected a positive number")
+        if self.settle_time < 0:
+            raise RecipeError(f"[physics] settle_time = {self.settle_time!r}: expected a number >= 0")
+        ratio = self.control_dt / self.timestep
+        if abs(ratio - round(ratio)) > 1e-6 * ratio:
+            raise RecipeError(f"[physics] control_dt = {self.control_dt!r}: expected a whole number of "
+                              f"timesteps ({self.timestep!r} s each)")
+        for key, names in (("integrator", _INTEGRATORS), ("solver", _SOLVERS), ("cone", _CONES),
+                           ("liquid_solver", _SOLVERS)):
+            if getattr(self, key) not in names:
+                raise RecipeError(f"[physics] {key} = {getattr(self, key)!r}: expected one of "
+                                  f"{sorted(names)}")
 
     @property
     def substeps(self) -> int:
+        """Physics steps per control period."""
         return round(self.control_dt / self.timestep)
+
+    def configure(self, spec: mujoco.MjSpec, *, liquid: bool = False) -> None:
+        """Set these options on ``spec``; ``liquid`` selects the liquid solver settings."""
+        option = spec.option
+        option.timestep = self.timestep
+        option.integrator = _INTEGRATORS[self.integrator]
+        option.impratio = self.impratio
+        option.cone = _CONES[self.cone]
+        option.solver = _SOLVERS[self.liquid_solver if liquid else self.solver]
+        option.iterations = self.liquid_iterations if liquid else self.iterations
 
 
 def yaw_quat(yaw: float) -> list[float]:
@@ -130,8 +178,9 @@ def _add_goal(spec: mujoco.MjSpec, task: TaskSpec) -> None:
     body.add_site(name=goal.name, size=[goal.radius, 0.0, 0.0], group=4)
 
 
-def assemble_spec(task: TaskSpec, physics: Physics) -> tuple[mujoco.MjSpec, dict[str, ObjectModel]]:
-    """The task's complete MjSpec and the model of each object instance (in task order).
+def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[str, ObjectModel]]:
+    """The task's complete MjSpec, with the physics, gripper and cameras of ``sim``, and the model of each
+    object instance (in task order).
 
     Raises:
         SceneError: duplicate or reserved instance names, bad articulation entries, bad goal.
@@ -142,14 +191,10 @@ def assemble_spec(task: TaskSpec, physics: Physics) -> tuple[mujoco.MjSpec, dict
     for name, frac in task.articulation.items():
         if models[name].articulation is None and frac is not None:
             raise SceneError(f"object {name!r} ({models[name].name}) has no articulation to set")
-    spec = robot.load_panda_spec()
+    spec = robot.load_panda_spec(gripper=sim.gripper)
     spec.modelname = f"{task.family}_{task.task_id:04d}_{task.condition}"
-    spec.option.timestep = physics.timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # held objects creep out of the fingers with pyramidal
-    if any(m.particles is not None and m.particles.kind == "liquid" for m in models.values()):
-        spec.option.solver = mujoco.mjtSolver.mjSOL_CG
-        spec.option.iterations = physics.liquid_iterations
+    liquid = any(m.particles is not None and m.particles.kind == "liquid" for m in models.values())
+    sim.physics.configure(spec, liquid=liquid)
     base = spec.body(robot.ROOT_BODY)
     base.pos = list(task.robot_base)
     base.quat = yaw_quat(task.robot_base_yaw)
@@ -164,5 +209,5 @@ def assemble_spec(task: TaskSpec, physics: Physics) -> tuple[mujoco.MjSpec, dict
         model.add_to(spec, body, prefix=f"{obj.name}/")
     add_particles(spec, task, models, particle_models(models))
     _add_goal(spec, task)
-    add_cameras(spec, task.robot_base, task.robot_base_yaw, robot.HAND_BODY)
+    add_cameras(spec, task.robot_base, task.robot_base_yaw, robot.HAND_BODY, sim.cameras)
     return spec, models

@@ -27,7 +27,7 @@ from __future__ import annotations
 import hashlib
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -37,6 +37,12 @@ from mgdata.paths import recipes_dir
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
+
+
+def _default_image_size() -> int:
+    from mgdata.sim.config import default_image_size  # imports mujoco: only when a recipe sets no size
+
+    return default_image_size()
 
 
 @dataclass(frozen=True)
@@ -49,7 +55,7 @@ class TaskSettings:
     hold_steps: int = 10
     settle_steps: int = 40
     cameras: tuple[str, ...] = CAMERAS
-    image_size: int = 256
+    image_size: int = field(default_factory=_default_image_size)  # recipes/sim.toml [cameras] image_size
 
 
 @dataclass(frozen=True)

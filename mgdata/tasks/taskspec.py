@@ -14,6 +14,12 @@ from typing import Any
 from mgdata.spec import SafetySpec
 
 
+def _default_image_size() -> int:
+    from mgdata.sim.config import default_image_size  # the simulation layer imports this module
+
+    return default_image_size()
+
+
 def _frozen(mapping: Mapping[str, Any] | None = None) -> Mapping[str, Any]:
     return MappingProxyType(dict(mapping or {}))
 
@@ -55,7 +61,7 @@ class TaskSpec:
         articulation: instance name -> initial opening fraction of its articulation (0 closed, 1 fully open).
         robot_base: robot base position (m) in the world; the robot faces +X.
         robot_base_yaw: rotation of the robot base about +Z (rad).
-        image_size: camera image side (pixels).
+        image_size: camera image side (pixels); default ``recipes/sim.toml`` ``[cameras] image_size``.
         seed: seed from which the task's own random draws were made.
         params: family tunables the skeleton reads (lift height, standoffs …), copied from the recipe.
     """
@@ -70,7 +76,7 @@ class TaskSpec:
     articulation: Mapping[str, float] = field(default_factory=_frozen)
     robot_base: tuple[float, float, float] = (0.0, 0.0, 0.0)
     robot_base_yaw: float = 0.0
-    image_size: int = 256
+    image_size: int = field(default_factory=_default_image_size)
     seed: int = 0
     params: Mapping[str, Any] = field(default_factory=_frozen)
 

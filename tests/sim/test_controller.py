@@ -19,7 +19,7 @@ def test_action_maps_to_actuators_and_state_tracks_it(jar_scene: Scene) -> None:
     ctl.apply(np.array([*target, 1.0]))
     ids = robot.arm_actuator_ids(jar_scene.model)
     assert np.allclose(jar_scene.data.ctrl[ids[:7]], target)
-    assert jar_scene.data.ctrl[ids[7]] == pytest.approx(robot.GRIPPER_CLOSED_CTRL)
+    assert jar_scene.data.ctrl[ids[7]] == pytest.approx(jar_scene.gripper.closed_ctrl)
     t0 = jar_scene.data.time
     for _ in range(20):
         ctl.step()

@@ -42,10 +42,12 @@ def test_panda_names_and_home_pose() -> None:
 
 
 def test_gripper_command_mapping() -> None:
-    assert robot.gripper_ctrl(0.0) == robot.GRIPPER_OPEN_CTRL
-    assert robot.gripper_ctrl(1.0) == pytest.approx(robot.GRIPPER_CLOSED_CTRL)
-    assert robot.gripper_ctrl(7.0) == robot.gripper_ctrl(1.0)
-    assert robot.gripper_ctrl(-1.0) == robot.gripper_ctrl(0.0)
+    g = robot.GripperConfig()
+    assert g.ctrl(0.0) == g.open_ctrl
+    assert g.ctrl(1.0) == pytest.approx(g.closed_ctrl)
+    assert g.ctrl(7.0) == g.ctrl(1.0)
+    assert g.ctrl(-1.0) == g.ctrl(0.0)
+    assert g.is_closed(g.ctrl(0.8)) and not g.is_closed(g.ctrl(0.2))
 
 
 def test_visual_meshes_are_decimated_but_collision_meshes_are_exact() -> None:
