@@ -30,7 +30,7 @@ from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
 from mgdata.engine.timing import Timings
 from mgdata.engine.variation import draw_variation
-from mgdata.errors import SimulationError
+from mgdata.errors import RecipeError, SimulationError
 from mgdata.grasps.db import GraspDB
 from mgdata.ltl import verdict
 from mgdata.motion import (
@@ -44,10 +44,12 @@ from mgdata.motion import (
 )
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, EpisodeSink, Frame
 from mgdata.record.recorder import Recorder
+from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.world import Physics
 from mgdata.spec import SafetySpec
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
@@ -124,10 +126,25 @@ def slowed(traj: JointTrajectory, speed: float) -> JointTrajectory:
     return JointTrajectory(q, traj.rate, duration)
 
 
+def control_rate(physics: Physics, motion: MotionConfig) -> int:
+    """The control and recording rate (Hz), ``recipes/sim.toml`` ``[physics] control_dt``; the planner's
+    trajectory samples (``recipes/motion.toml`` ``[retime] rate``) must come at the same rate."""
+    fps = round(1.0 / physics.control_dt)
+    if abs(fps * physics.control_dt - 1.0) > 1e-9:
+        raise RecipeError(f"recipes/sim.toml [physics] control_dt = {physics.control_dt!r}: expected the "
+                          "period of a whole number of Hz (the dataset's fps)")
+    if abs(motion.retime.rate - fps) > 1e-9:
+        raise RecipeError(f"recipes/motion.toml [retime] rate = {motion.retime.rate!r} Hz does not match "
+                          f"the control rate of recipes/sim.toml ([physics] control_dt = "
+                          f"{physics.control_dt!r} s, {fps} Hz)")
+    return fps
+
+
 def dataset_schema(recipe: Recipe) -> DatasetSchema:
     """The dataset schema every episode of a family's generation run shares."""
     size = recipe.tasks.image_size
-    return DatasetSchema(fps=20, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
+    fps = control_rate(load_sim_config().physics, load_motion_config())
+    return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
                          constraints=tuple(c.id for c in recipe.spec.constraints))
 
@@ -150,7 +167,9 @@ class Executor:
         self.skeleton: FamilySkeleton = skeleton_for(task.family)
         self.scene: Scene = build_scene(task)
         self.controller = JointController(self.scene)
-        self.planner = MotionPlanner(self.scene.model, motion or load_motion_config())
+        motion = motion or load_motion_config()
+        control_rate(self.scene.physics, motion)
+        self.planner = MotionPlanner(self.scene.model, motion)
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None
         self._goal = Labeller(self.scene, SafetySpec(f"{task.family}_goal", (), recipe.success))
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects

@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import time
@@ -28,11 +29,12 @@ from mgdata.engine.variation import attempt_seed
 from mgdata.engine.workers import AttemptPool, WorkerConfig
 from mgdata.errors import DatasetError, RecipeError
 from mgdata.interrupts import sigint_deferred
-from mgdata.paths import grasps_dir
+from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record import layout
 from mgdata.record.commit import work_dir
 from mgdata.record.episode import EpisodeMeta
 from mgdata.record.writer import DatasetWriter
+from mgdata.sim.config import SIM_TOML
 from mgdata.tasks.recipe import Recipe, load_recipe
 
 STATE_FILE = "meta/mgdata_generate.json"
@@ -94,6 +96,15 @@ def _tasks(job: GenerateJob, recipe: Recipe) -> tuple[int, ...]:
     return tuple(dict.fromkeys(tasks))
 
 
+def inputs_digest(recipe: Recipe, grasps: Path) -> str:
+    """Hash of everything besides the code that shapes the data: the family recipe and its spec
+    (``recipe.digest``), ``recipes/sim.toml``, ``recipes/motion.toml`` and the grasp database files."""
+    h = hashlib.sha256(recipe.digest.encode())
+    for path in [recipes_dir() / SIM_TOML, recipes_dir() / "motion.toml", *sorted(grasps.glob("*.json"))]:
+        h.update(b"\0" + path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None = None) -> RunSummary:
     """Run until the dataset holds ``job.n`` kept episodes, ``max_attempts`` are spent, or Ctrl-C."""
     if job.n < 1:
@@ -116,7 +127,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
             failed = DatasetWriter.open_or_create(neg_root, schema, codec=job.codec, spec=recipe.spec)
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
-        state = RunState(job.family, job.seed, recipe.digest)
+        state = RunState(job.family, job.seed, inputs_digest(recipe, Path(job.grasps or grasps_dir())))
         saved = RunState.load(state_path)
         if saved is not None:
             saved.check_compatible(state, state_path)

@@ -74,20 +74,21 @@ class RunState:
     Attributes:
         family: family name; a resume with another family is refused.
         seed: the user seed (``--seed``); a resume with another seed is refused (seeds would collide).
-        recipe_digest: hash of the recipe's task list; a changed recipe is refused.
+        inputs_digest: hash of every input that shapes the data (recipe, spec, sim, motion, grasps); a run
+            with other inputs is refused.
         next_draw: task id -> next draw index (covers every task ever attempted into this dataset).
         attempts: attempts committed into this dataset so far, over all runs (kept or not).
     """
 
     family: str
     seed: int
-    recipe_digest: str
+    inputs_digest: str
     next_draw: dict[int, int] = field(default_factory=dict)
     attempts: int = 0
 
     def check_compatible(self, other: RunState, path: Path) -> None:
         """Raise :class:`DatasetError` if ``other`` (this run's settings) cannot continue this dataset."""
-        for name in ("family", "seed", "recipe_digest"):
+        for name in ("family", "seed", "inputs_digest"):
             mine, theirs = getattr(self, name), getattr(other, name)
             if mine != theirs:
                 raise DatasetError(
@@ -99,7 +100,7 @@ class RunState:
         return {
             "family": self.family,
             "seed": self.seed,
-            "recipe_digest": self.recipe_digest,
+            "inputs_digest": self.inputs_digest,
             "next_draw": {str(k): v for k, v in sorted(self.next_draw.items())},
             "attempts": self.attempts,
         }
@@ -115,7 +116,7 @@ class RunState:
             return cls(
                 family=str(raw["family"]),
                 seed=int(raw["seed"]),
-                recipe_digest=str(raw["recipe_digest"]),
+                inputs_digest=str(raw["inputs_digest"]),
                 next_draw={int(k): int(v) for k, v in raw["next_draw"].items()},
                 attempts=int(raw.get("attempts", 0)),
             )
