@@ -13,7 +13,6 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ import qpsolvers
 
 from mgdata.errors import RecipeError
 from mgdata.paths import recipes_dir
+from mgdata.settings import load_settings, settings_from_dict
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ class MotionConfig:
 
     def __post_init__(self) -> None:
         for section in dataclasses.fields(self):
-            _validate(getattr(self, section.name), section.name, "MotionConfig")
+            _validate(getattr(self, section.name), section.name)
 
 
 _MAY_BE_ZERO = frozenset({"restarts", "restart_sigma", "posture_cost", "polish_radius", "damping",
@@ -108,61 +108,27 @@ _MAY_BE_ZERO = frozenset({"restarts", "restart_sigma", "posture_cost", "polish_r
 """Numeric fields for which 0 means "off"; every other number must be positive."""
 
 
-def _validate(obj: Any, section: str, source: str) -> None:
+def _validate(obj: Any, section: str) -> None:
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
         if f.type not in ("float", "int"):
             continue
         if f.name in _MAY_BE_ZERO and value < 0:
-            raise RecipeError(f"{source}: [{section}] {f.name} = {value!r} must not be negative")
+            raise RecipeError(f"[{section}] {f.name} = {value!r} must not be negative")
         if f.name not in _MAY_BE_ZERO and not value > 0:
-            raise RecipeError(f"{source}: [{section}] {f.name} = {value!r} must be positive")
+            raise RecipeError(f"[{section}] {f.name} = {value!r} must be positive")
     solver = getattr(obj, "solver", None)
     if solver is not None and solver not in qpsolvers.available_solvers:
-        raise RecipeError(f"{source}: [{section}] solver = {solver!r} is not an installed QP solver; "
+        raise RecipeError(f"[{section}] solver = {solver!r} is not an installed QP solver; "
                           f"installed: {sorted(qpsolvers.available_solvers)}")
 
 
-def _coerce(value: Any, type_name: str, where: str) -> Any:
-    expected = {"float": (int, float), "int": (int,), "bool": (bool,), "str": (str,)}[type_name]
-    if (isinstance(value, bool) and type_name != "bool") or not isinstance(value, expected):
-        raise RecipeError(f"{where} = {value!r}: expected a {type_name}")
-    return float(value) if type_name == "float" else value
-
-
 def motion_config_from_dict(raw: dict[str, Any], source: str = "<dict>") -> MotionConfig:
-    """Build a MotionConfig from parsed TOML, rejecting unknown sections/keys and mistyped values."""
-    sections = {f.name: f for f in dataclasses.fields(MotionConfig)}
-    kwargs: dict[str, Any] = {}
-    for name, table in raw.items():
-        if name not in sections:
-            raise RecipeError(f"{source}: unknown section [{name}]; expected one of {sorted(sections)}")
-        if not isinstance(table, dict):
-            raise RecipeError(f"{source}: [{name}] must be a table of keys")
-        cls = sections[name].default_factory  # type: ignore[misc]
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        values = {}
-        for key, value in table.items():
-            if key not in fields:
-                raise RecipeError(f"{source}: unknown key [{name}] {key}; expected one of {sorted(fields)}")
-            values[key] = _coerce(value, str(fields[key].type), f"{source}: [{name}] {key}")
-        kwargs[name] = cls(**values)
-    try:
-        config = MotionConfig(**kwargs)
-    except RecipeError as exc:
-        raise RecipeError(str(exc).replace("MotionConfig", source)) from None
-    return config
+    """Build a MotionConfig from parsed TOML, rejecting unknown tables/keys and mistyped values."""
+    return settings_from_dict(MotionConfig, raw, source)
 
 
 def load_motion_config(path: Path | str | None = None) -> MotionConfig:
     """Load ``recipes/motion.toml`` (or ``path``); a missing default file means all defaults."""
     file = Path(path) if path is not None else recipes_dir() / "motion.toml"
-    if not file.is_file():
-        if path is not None:
-            raise RecipeError(f"motion config {file} does not exist")
-        return MotionConfig()
-    try:
-        raw = tomllib.loads(file.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise RecipeError(f"{file}: not valid TOML: {exc}") from exc
-    return motion_config_from_dict(raw, str(file))
+    return load_settings(MotionConfig, file, explicit=path is not None)

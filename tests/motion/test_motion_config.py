@@ -28,11 +28,11 @@ def test_partial_file_keeps_defaults(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("[planer]\nrange = 1.0\n", r"unknown section \[planer\].*'planner'"),
+        ("[planer]\nrange = 1.0\n", r"unknown table \[planer\].*'planner'"),
         ("[ik]\nrestart = 3\n", r"unknown key \[ik\] restart; expected one of .*'restarts'"),
-        ("[check]\nmargin = \"1cm\"\n", r"\[check\] margin = '1cm': expected a float"),
-        ("[ik]\nrestarts = 2.5\n", r"\[ik\] restarts = 2.5: expected a int"),
-        ("[planner]\nsmooth = 1\n", r"\[planner\] smooth = 1: expected a bool"),
+        ("[check]\nmargin = \"1cm\"\n", r"\[check\] margin = '1cm': expected a number"),
+        ("[ik]\nrestarts = 2.5\n", r"\[ik\] restarts = 2.5: expected an integer"),
+        ("[planner]\nsmooth = 1\n", r"\[planner\] smooth = 1: expected true or false"),
         ("[linear]\nspeed = -0.1\n", r"\[linear\] speed = -0.1 must be positive"),
         ("[retime]\nspeed_scale = 0\n", r"\[retime\] speed_scale = 0.0 must be positive"),
         ("[check]\nmargin = -0.01\n", r"\[check\] margin = -0.01 must not be negative"),

@@ -64,7 +64,7 @@ def test_every_scene_has_the_grip_contact_model(jar_scene: Scene) -> None:
     ("[gripper]\nclosed_ctrl = -1.5\n", r"\[gripper\] closed_ctrl = -1.5: expected a value in ctrl_range"),
     ("[cameras]\nleft = [0.45, 0.0, 1.5]\n", r"\[cameras\] left = .*straight above or below look_at"),
     ("[cameras]\nimage_size = 4\n", r"\[cameras\] image_size = 4: expected an integer >= 8"),
-    ("physics = 3\n", r"physics must be a table"),
+    ("physics = 3\n", r"\[physics\] must be a table"),
     ("[physics\n", r"not valid TOML"),
 ])
 def test_bad_values_are_one_error_naming_file_and_key(tmp_path: Path, text: str, message: str) -> None:
