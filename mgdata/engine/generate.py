@@ -132,6 +132,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         if saved is not None:
             saved.check_compatible(state, state_path)
             state = saved
+        state.attempts = max(state.attempts, writer.recorded_attempts)  # a kill -9 right after a commit
         metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
         _check_episodes(metas, job, out)
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
@@ -174,6 +175,9 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                 result = done.result
                 t0 = time.perf_counter()
                 with sigint_deferred():  # a commit and the cursor recording it happen together or not at all
+                    # the count goes into the commit itself, so a kill -9 before the state file is saved
+                    # loses no kept attempt from it (resume takes the larger count)
+                    writer.record_attempts(state.attempts + 1)
                     if result.kept and done.staged is not None:
                         writer.append_staged(done.staged)
                     elif done.staged is not None and failed is not None and job.keep_failed:
@@ -184,7 +188,6 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                                                           result.draw + 1)
                     state.attempts += 1
                     state.save(state_path)
-                    writer.record_attempts(state.attempts)
                 summary.add(result, time.perf_counter() - t0)
                 summary.wall = time.perf_counter() - start
                 if on_attempt is not None:

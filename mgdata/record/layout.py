@@ -23,8 +23,9 @@ DATA_FILE_MB = 100
 VIDEO_FILE_MB = 200
 # Each appended episode rewrites (remuxes) the current video file, and LeRobot 0.4.4 matches decoded frame
 # times in float32 with a 1e-4 s tolerance (float32 steps exceed it past 1024 s into a file). So mgdata
-# also starts a new video file after this many seconds (6000 frames at 20 Hz).
-VIDEO_FILE_SECONDS = 300.0
+# also starts a new video file after this many seconds (1200 frames, ~6 jar demos at 20 Hz): at 300 s the
+# main process's appends cost 12 s of a 2-worker 40-demo run, at 60 s 8 s.
+VIDEO_FILE_SECONDS = 60.0
 
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"

@@ -189,6 +189,11 @@ class DatasetWriter:
         next commit or on close."""
         self._info["mgdata"]["attempts"] = int(attempts)
 
+    @property
+    def recorded_attempts(self) -> int:
+        """The attempt count last noted with :meth:`record_attempts` (0 if never)."""
+        return int(self._info["mgdata"].get("attempts") or 0)
+
     # --- EpisodeSink -------------------------------------------------------------------------------------
 
     def add_frame(self, frame: Frame) -> None:
