@@ -33,3 +33,10 @@ def save_npz_atomic(path: Path, **arrays: np.ndarray) -> None:
     tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
     np.savez(tmp, **arrays)
     os.replace(tmp, path)
+
+
+def remove_stale_temps(path: Path) -> None:
+    """Delete temporary files a killed :func:`write_text_atomic` of ``path`` left behind."""
+    path = Path(path)
+    for tmp in path.parent.glob(f".{path.name}.*.tmp"):
+        tmp.unlink(missing_ok=True)

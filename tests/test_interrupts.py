@@ -32,3 +32,4 @@ def test_forgotten_when_not_reraised() -> None:
     with sigint_deferred(reraise=False):
         os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+

@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.resume import DrawCursor, RunState
 from mgdata.engine.summary import RunSummary
@@ -128,13 +129,18 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
         state = RunState(job.family, job.seed, inputs_digest(recipe, Path(job.grasps or grasps_dir())))
+        remove_stale_temps(state_path)  # a save cut short by kill -9 (the writer's lock is ours now)
         saved = RunState.load(state_path)
         if saved is not None:
             saved.check_compatible(state, state_path)
             state = saved
-        state.attempts = max(state.attempts, writer.recorded_attempts)  # a kill -9 right after a commit
         metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
         _check_episodes(metas, job, out)
+        # A kill -9 between an episode's commit and the state file's update leaves the state one attempt
+        # behind the dataset: catch it up from what the dataset records.
+        state.attempts = max(state.attempts, writer.recorded_attempts)
+        for m in metas:
+            state.next_draw[m.task_id] = max(state.next_draw.get(m.task_id, 0), m.draw_index + 1)
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
         missing = max(0, job.n - writer.num_episodes)
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
