@@ -85,7 +85,7 @@ class SafetySpec:
 @dataclass(frozen=True)
 class Param:
     """One evaluator parameter: ``kind`` is ``float`` or ``str``; ``default`` ``None`` means required;
-    floats must lie in ``[low, high]``."""
+    floats must lie in ``[low, high]``; a str with ``choices`` must be one of them."""
 
     name: str
     kind: type
@@ -93,8 +93,12 @@ class Param:
     low: float = float("-inf")
     high: float = float("inf")
     doc: str = ""
+    choices: tuple[str, ...] = ()
 
     def expected(self) -> str:
+        if self.choices:
+            names = ", ".join(repr(c) for c in self.choices)
+            return f"one of {names} ({self.doc})" if self.doc else f"one of {names}"
         if self.kind is str:
             return f"a name ({self.doc})" if self.doc else "a name"
         return f"a number in [{self.low:g}, {self.high:g}]" + (f" ({self.doc})" if self.doc else "")
@@ -113,26 +117,34 @@ def _sig(name: str, doc: str, *params: Param) -> tuple[str, EvaluatorSignature]:
     return name, EvaluatorSignature(name, params, doc)
 
 
-#: The predicate evaluators a proposition may name, with their parameters.
+#: The predicate evaluators a proposition may name, with their parameters. Definitions, defaults and the
+#: measurements behind them: docs/predicates.md.
 EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
     _sig("dropped", "the object is below the floor plus a margin",
          Param("floor_margin", float, 0.05, 0.0, 1.0, "m above the floor")),
     _sig("upright", "the object's vertical axis is within a tilt of world +Z",
          Param("max_tilt_deg", float, None, 0.0, 180.0, "degrees")),
-    _sig("on", "the object rests on a support",
-         Param("support", str, None, doc='"table", an instance name or a prefix glob')),
+    _sig("on", "the object rests on a support: an upward contact, or a gap of at most gap_tol above it",
+         Param("support", str, None, doc='"table", "floor", an instance name or a prefix glob'),
+         Param("gap_tol", float, 0.0005, 0.0, 0.01, "m; a hop this small still counts as resting")),
     _sig("open", "the articulation's opening fraction is at least a threshold",
          Param("min_fraction", float, 0.5, 0.0, 1.0, "of the joint range")),
     _sig("closed", "the articulation's opening fraction is at most a threshold",
          Param("max_fraction", float, 0.05, 0.0, 1.0, "of the joint range")),
-    _sig("touching", "the object is in contact with another",
-         Param("other", str, None, doc='"robot", an instance name or a prefix glob')),
+    _sig("touching", "the object is in contact with another, or within gap_tol of it",
+         Param("other", str, None, doc='"robot", "table", an instance name or a prefix glob'),
+         Param("gap_tol", float, 0.0, 0.0, 0.01, "m; 0: MuJoCo contact only, as engagement")),
     _sig("spilled", "more than a fraction of the particles are outside the container",
          Param("container", str, None, doc="the container's instance name"),
          Param("max_fraction", float, 0.15, 0.0, 1.0, "of the particles")),
-    _sig("in_region", "the object is inside a named goal region",
-         Param("region", str, "goal", doc="region name")),
-    _sig("held", "both gripper fingers touch the object"),
+    _sig("in_region", "the object's bounding-box centre (or the stated part of its box) is inside a region",
+         Param("region", str, "goal", doc="region name"),
+         Param("mode", str, "centre", doc="what must be inside", choices=("centre", "contained", "fraction")),
+         Param("min_fraction", float, 0.5, 0.0, 1.0, "of the bounding box, mode fraction only")),
+    _sig("held", "a stable grasp: both fingers on the object, nothing supporting it, at rest in the hand",
+         Param("gap_tol", float, 0.0005, 0.0, 0.01, "m; finger contact and support tolerance"),
+         Param("max_speed", float, 0.02, 0.0, 10.0, "m/s of the object relative to the hand"),
+         Param("max_angular_speed", float, 0.3, 0.0, 100.0, "rad/s of the object relative to the hand")),
     _sig("covered", "more than a fraction of the dust on the object remains",
          Param("min_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
 ]))
@@ -282,7 +294,7 @@ def _param(p: Param, raw: Mapping[str, Any], where: str) -> float | str:
         return p.default
     value = raw[p.name]
     if p.kind is str:
-        if not isinstance(value, str) or not _SUBJECT.match(value):
+        if not isinstance(value, str) or not _SUBJECT.match(value) or (p.choices and value not in p.choices):
             raise SpecError(f"{where}: expected {p.expected()}, got {value!r}")
         return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not p.low <= value <= p.high:

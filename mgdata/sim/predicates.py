@@ -31,16 +31,21 @@ import numpy as np
 
 from mgdata.errors import SpecError
 from mgdata.sim import robot
-from mgdata.sim.geometry import LowestPoint
+from mgdata.sim.geometry import FlatTop, GeomGaps, LowestPoint, box_corners, box_grid
 from mgdata.sim.scene import OWNER_FLOOR, OWNER_ROBOT, OWNER_TABLE, Scene
 
 ON_NORMAL_MIN_Z = np.cos(np.deg2rad(45.0))
 SPILL_MARGIN = 0.005
 SPILL_HEADROOM = 0.03
+IN_REGION_GRID = 8
+"""Cells per axis of the fixed sample grid over the bounding box (``in_region`` mode ``fraction``): 512."""
 
 
 class Contacts:
-    """The current contacts as owner arrays (computed once per labelling step)."""
+    """The current contacts (computed once per labelling step), queried by owner or geom masks.
+
+    MuJoCo's contact normal (first row of ``contact.frame``) points from ``geom1`` to ``geom2``.
+    """
 
     def __init__(self, scene: Scene) -> None:
         d = scene.data
@@ -49,22 +54,22 @@ class Contacts:
         self.geom1, self.geom2 = geom[:, 0], geom[:, 1]
         self.owner1 = scene.geom_owner[self.geom1]
         self.owner2 = scene.geom_owner[self.geom2]
-        self._frame = d.contact.frame[:n] if n else np.zeros((0, 9))
+        self._nz = d.contact.frame[:n, 2] if n else np.zeros(0)
 
     def between(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Mask of contacts between owner sets ``a`` and ``b`` (boolean lookup arrays over owners)."""
         return (a[self.owner1] & b[self.owner2]) | (b[self.owner1] & a[self.owner2])
 
-    def resting(self, obj: np.ndarray, support: np.ndarray) -> bool:
-        """Is there a contact where ``support`` pushes ``obj`` upward?"""
-        nz = self._frame[:, 2]
-        up = (support[self.owner1] & obj[self.owner2] & (nz >= ON_NORMAL_MIN_Z)) | (
-            obj[self.owner1] & support[self.owner2] & (-nz >= ON_NORMAL_MIN_Z))
-        return bool(up.any())
+    def touches(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Is there a contact between the geom sets ``a`` and ``b`` (boolean masks over geoms)?"""
+        return bool(((a[self.geom1] & b[self.geom2]) | (b[self.geom1] & a[self.geom2])).any())
 
-    def geoms_touch(self, a: np.ndarray, obj: np.ndarray) -> bool:
-        """Does any geom in the boolean geom mask ``a`` touch an owner in ``obj``?"""
-        return bool(((a[self.geom1] & obj[self.owner2]) | (a[self.geom2] & obj[self.owner1])).any())
+    def resting(self, obj: np.ndarray, support: np.ndarray) -> bool:
+        """Is there a contact where a ``support`` geom pushes an ``obj`` geom upward (normal from the support
+        into the object within 45° of +Z)? Both are boolean masks over geoms."""
+        up = (support[self.geom1] & obj[self.geom2] & (self._nz >= ON_NORMAL_MIN_Z)) | (
+            obj[self.geom1] & support[self.geom2] & (-self._nz >= ON_NORMAL_MIN_Z))
+        return bool(up.any())
 
 
 Check = Callable[[Contacts], bool]
@@ -99,7 +104,14 @@ def owner_mask(scene: Scene, pattern: str, what: str) -> np.ndarray:
     return mask
 
 
+def geom_mask(scene: Scene, owners: np.ndarray) -> np.ndarray:
+    """Boolean mask over geoms of the geoms whose owner is in the owner mask ``owners``."""
+    return owners[scene.geom_owner]
+
+
 def _box(scene: Scene, name: str) -> tuple[int, np.ndarray, np.ndarray]:
+    """Body id and local bounding box ``[lo, hi]`` of an instance (``ObjectModel.size``, origin at the bottom
+    centre, articulation closed): the object's bounding volume."""
     m = scene.objects[name]
     lo = np.array([-m.size[0] / 2, -m.size[1] / 2, 0.0])
     hi = np.array([m.size[0] / 2, m.size[1] / 2, m.size[2]])
@@ -114,6 +126,20 @@ def _world_box(scene: Scene, body: int, lo: np.ndarray, hi: np.ndarray) -> tuple
     return centre - half, centre + half
 
 
+def _near_top(scene: Scene, subject: str, owner: int, gap: float) -> Callable[[], bool]:
+    """Is the lowest point of ``subject`` within ``gap`` of the top face of the fixed support ``owner``
+    (table or floor), with the object's bounding box over that face?"""
+    tops = [FlatTop(scene.model, scene.data, g) for g in np.flatnonzero(scene.geom_owner == owner)]
+    lowest, box = LowestPoint(scene.model, scene.object_geom_ids(subject)), _box(scene, subject)
+
+    def near() -> bool:
+        low = lowest(scene.data)
+        close = [t for t in tops if abs(low - t.z) <= gap]
+        return bool(close) and any(t.overlaps(*_world_box(scene, *box)) for t in close)
+
+    return near
+
+
 def _dropped(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     limit = scene.floor_z + float(p["floor_margin"])
     lowest = LowestPoint(scene.model, scene.object_geom_ids(subject))
@@ -126,8 +152,19 @@ def _upright(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
 
 
 def _on(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    obj, support = owner_mask(scene, subject, "subject"), owner_mask(scene, str(p["support"]), "support")
-    return lambda c: c.resting(obj, support)
+    pattern, gap = str(p["support"]), float(p["gap_tol"])
+    obj = geom_mask(scene, owner_mask(scene, subject, "subject"))
+    support = geom_mask(scene, owner_mask(scene, pattern, "support"))
+    if pattern in ("table", "floor"):
+        near = _near_top(scene, subject, OWNER_TABLE if pattern == "table" else OWNER_FLOOR, gap)
+        return lambda c: c.resting(obj, support) or near()
+    gaps = GeomGaps(scene.model, np.flatnonzero(obj), np.flatnonzero(support), gap)
+
+    def check(c: Contacts) -> bool:
+        return c.resting(obj, support) or any(
+            dist > 0.0 and up[2] >= ON_NORMAL_MIN_Z for dist, up in gaps.near(scene.data))
+
+    return check
 
 
 def _fraction(scene: Scene, subject: str) -> Callable[[], float]:
@@ -149,8 +186,13 @@ def _closed(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
 
 
 def _touching(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    obj, other = owner_mask(scene, subject, "subject"), owner_mask(scene, str(p["other"]), "other")
-    return lambda c: bool(c.between(obj, other).any())
+    obj = geom_mask(scene, owner_mask(scene, subject, "subject"))
+    other = geom_mask(scene, owner_mask(scene, str(p["other"]), "other"))
+    gap = float(p["gap_tol"])
+    if gap == 0.0:
+        return lambda c: c.touches(obj, other)
+    gaps = GeomGaps(scene.model, np.flatnonzero(obj), np.flatnonzero(other), gap)
+    return lambda c: c.touches(obj, other) or bool(gaps.near(scene.data))
 
 
 def _spilled(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
@@ -172,26 +214,55 @@ def _spilled(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
 
 
 def _in_region(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    region = str(p["region"])
+    region, mode = str(p["region"]), str(p["mode"])
     site = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_SITE, region)
     if site < 0:
         raise SpecError(f"in_region: the scene has no region {region!r} (the task's goal is named "
                         f"{scene.task.goal.name if scene.task.goal else 'nothing: it has no goal'})")
-    radius, body_box = float(scene.model.site_size[site, 0]), _box(scene, subject)
+    radius, (body, lo, hi) = float(scene.model.site_size[site, 0]), _box(scene, subject)
+    local = {"centre": ((lo + hi) / 2.0)[None, :], "contained": box_corners(lo, hi),
+             "fraction": box_grid(lo, hi, IN_REGION_GRID)}[mode]
+    need = float(p["min_fraction"]) if mode == "fraction" else 1.0
 
     def check(c: Contacts) -> bool:
-        lo, hi = _world_box(scene, *body_box)
-        centre = scene.data.site_xpos[site]
-        return bool(np.linalg.norm(centre - np.clip(centre, lo, hi)) <= radius)
+        d = scene.data
+        offset = d.xpos[body] + local @ d.xmat[body].reshape(3, 3).T - d.site_xpos[site]
+        return bool(np.mean(np.einsum("ij,ij->i", offset, offset) <= radius * radius) >= need)
 
     return check
 
 
 def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    m, obj = scene.model, owner_mask(scene, subject, "subject")
-    fingers = [np.isin(np.arange(m.ngeom), np.flatnonzero(m.geom_bodyid == m.body(b).id))
-               for b in robot.FINGER_BODIES]
-    return lambda c: c.geoms_touch(fingers[0], obj) and c.geoms_touch(fingers[1], obj)
+    m, d, gap = scene.model, scene.data, float(p["gap_tol"])
+    vmax, wmax = float(p["max_speed"]), float(p["max_angular_speed"])
+    obj = geom_mask(scene, owner_mask(scene, subject, "subject"))
+    fingers = [(scene.geom_owner >= 0) & (m.geom_bodyid == m.body(b).id) for b in robot.FINGER_BODIES]
+    others = (scene.geom_owner >= 0) & ~obj & ~fingers[0] & ~fingers[1]
+    finger_gaps = [GeomGaps(m, np.flatnonzero(f), np.flatnonzero(obj), gap) for f in fingers]
+    on_fixed = [_near_top(scene, subject, owner, gap) for owner in (OWNER_TABLE, OWNER_FLOOR)]
+    body, lo, hi = _box(scene, subject)
+    hand, centre = m.body(robot.HAND_BODY).id, (lo + hi) / 2.0
+    v_obj, v_hand = np.zeros(6), np.zeros(6)
+
+    def relative_speeds() -> tuple[float, float]:
+        """Linear (m/s, at the bounding-box centre) and angular (rad/s) speed of the object in the hand."""
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, body, v_obj, 0)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, hand, v_hand, 0)
+        point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ centre
+        v = (v_obj[3:] + np.cross(v_obj[:3], point - d.xpos[body])
+             - v_hand[3:] - np.cross(v_hand[:3], point - d.xpos[hand]))
+        return float(np.linalg.norm(v)), float(np.linalg.norm(v_obj[:3] - v_hand[:3]))
+
+    def check(c: Contacts) -> bool:
+        for f, g in zip(fingers, finger_gaps, strict=True):
+            if not (c.touches(f, obj) or g.near(d)):
+                return False
+        if c.resting(obj, others) or any(near() for near in on_fixed):
+            return False
+        v, w = relative_speeds()
+        return v <= vmax and w <= wmax
+
+    return check
 
 
 def _dust_on(scene: Scene, subject: str) -> list[str]:

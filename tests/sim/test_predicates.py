@@ -16,7 +16,7 @@ from mgdata.sim.engagement import EngagementTracker
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
+from mgdata.tasks.taskspec import ObjectPlacement
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 """TCP rotation pointing straight down, fingers closing along world Y."""
@@ -196,7 +196,7 @@ def test_touching_and_engagement_happen_at_the_same_step() -> None:
     assert engaged == [t >= t_touch for t in range(len(path))]
 
 
-def test_grasp_squeezes_about_22N_and_holds_while_lifting() -> None:
+def test_grasp_squeezes_about_22N_and_holds_the_lifted_box() -> None:
     box = get_model("box/carton_03")
     _, hy, hz = box.geometry["half_extents"]
     assert 2 * hy < 0.075
@@ -209,14 +209,16 @@ def test_grasp_squeezes_about_22N_and_holds_while_lifting() -> None:
     q = robot.HOME_Q
     top = 2 * hz
     waypoints = [(z, 0.0) for z in np.linspace(top + 0.1, top - 0.03, 15)] + [(top - 0.03, 1.0)] * 10
-    waypoints += [(z, 1.0) for z in np.linspace(top - 0.03, top + 0.12, 20)]
+    waypoints += [(z, 1.0) for z in np.linspace(top - 0.03, top + 0.12, 20)] + [(top + 0.12, 1.0)] * 10
     held = []
     for z, grip in waypoints:
         q = ik(q, (0.5, 0.0, z), DOWN)
         ctl.apply(np.array([*q, grip]))
         ctl.step()
         held.append(lab.as_dict()["box_held"])
-    assert not any(held[:15]) and all(held[20:])
+    # Open hand above it, then closed on it while it still stands on the table: not held; lifted and at rest
+    # in the hand (the last steps): held.
+    assert not any(held[:25]) and all(held[-5:])
     assert scene.object_pose("box")[0][2] > 0.12, "the box must be lifted with the hand (15 cm commanded)"
     # Squeeze: the tendon servo pushes ~22 N, split equally over the two fingers (normal force per finger).
     m, d = scene.model, scene.data
@@ -229,19 +231,3 @@ def test_grasp_squeezes_about_22N_and_holds_while_lifting() -> None:
             mujoco.mj_contactForce(m, d, i, force)
             total += force[0]
     assert 9.0 < total < 15.0, f"squeeze {total:.1f} N per finger"
-
-
-def test_in_region_follows_the_goal_sphere() -> None:
-    scene = build_scene(task_with(
-        ObjectPlacement("cup", "cup/tumbler_02", (0.5, 0.0, 0.0)),
-        spec=spec_of(Proposition("cup_at_goal", "in_region", ("cup",))),
-        goal=GoalRegion((0.5, 0.2, 0.05), 0.05)))
-    lab = Labeller(scene, scene.task.safety)
-    scene.reset()
-    assert not lab.as_dict()["cup_at_goal"]
-    adr = scene.model.jnt_qposadr[scene.model.joint("cup/free").id]
-    radius = get_model("cup/tumbler_02").size[1] / 2
-    for dy, inside in [(0.2 - 0.05 - radius - 0.005, False), (0.2 - 0.05 - radius + 0.005, True)]:
-        scene.data.qpos[adr + 1] = dy
-        mujoco.mj_forward(scene.model, scene.data)
-        assert lab.as_dict()["cup_at_goal"] is inside
