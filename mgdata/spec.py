@@ -125,7 +125,7 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
     _sig("upright", "the object's vertical axis is within a tilt of world +Z",
          Param("max_tilt_deg", float, None, 0.0, 180.0, "degrees")),
     _sig("on", "the object rests on a support: an upward contact, or a gap of at most gap_tol above it",
-         Param("support", str, None, doc='"table", "floor", an instance name or a prefix glob'),
+         Param("support", str, None, doc='"table", an instance name or a prefix glob'),
          Param("gap_tol", float, 0.0005, 0.0, 0.01, "m; a hop this small still counts as resting")),
     _sig("open", "the articulation's opening fraction is at least a threshold",
          Param("min_fraction", float, 0.5, 0.0, 1.0, "of the joint range")),

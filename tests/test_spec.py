@@ -24,9 +24,12 @@ FAMILIES = ("cabinet", "clutter_dry", "clutter_liquid", "dusty", "jar", "lid", "
 def test_evaluator_signatures_are_the_contract() -> None:
     sig = {name: {p.name: p.default for p in e.params} for name, e in EVALUATORS.items()}
     assert sig == {
-        "dropped": {"floor_margin": 0.05}, "upright": {"max_tilt_deg": None}, "on": {"support": None},
-        "open": {"min_fraction": 0.5}, "closed": {"max_fraction": 0.05}, "touching": {"other": None},
-        "spilled": {"container": None, "max_fraction": 0.15}, "in_region": {"region": "goal"}, "held": {},
+        "dropped": {"floor_margin": 0.05}, "upright": {"max_tilt_deg": None},
+        "on": {"support": None, "gap_tol": 0.0005}, "open": {"min_fraction": 0.5},
+        "closed": {"max_fraction": 0.05}, "touching": {"other": None, "gap_tol": 0.0},
+        "spilled": {"container": None, "max_fraction": 0.15},
+        "in_region": {"region": "goal", "mode": "centre", "min_fraction": 0.5},
+        "held": {"gap_tol": 0.0005, "max_speed": 0.02, "max_angular_speed": 0.3},
         "covered": {"min_fraction": 0.0},
     }
 
@@ -37,7 +40,7 @@ def test_jar_spec_is_exactly_the_papers() -> None:
                                                      "G jar_upright"]
     props = {p.name: (p.evaluator, p.subjects, dict(p.params), p.quantifier) for p in spec.propositions}
     assert props == {
-        "jar_on_support": ("on", ("jar",), {"support": "table"}, "all"),
+        "jar_on_support": ("on", ("jar",), {"support": "table", "gap_tol": 0.0005}, "all"),
         "jar_closed": ("closed", ("jar",), {"max_fraction": 0.05}, "all"),
         "jar_dropped": ("dropped", ("jar",), {"floor_margin": 0.05}, "all"),
         "jar_upright": ("upright", ("jar",), {"max_tilt_deg": 30.0}, "all"),

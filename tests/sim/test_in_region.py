@@ -11,9 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sim_tasks import task_with
 
+from mgdata.errors import SpecError
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.spec import Proposition, SafetySpec
+from mgdata.spec import Proposition, SafetySpec, proposition_from_mapping
 from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
 
 GOAL = np.array([0.5, 0.2, 0.15])
@@ -143,3 +144,9 @@ def test_centre_and_contained_modes_agree_with_direct_distances(goal20cm, offset
         assert labels["centre"] is bool(centre <= 0.2)
     if abs(far - 0.2) > 1e-9:
         assert labels["contained"] is bool(far <= 0.2)
+
+
+def test_an_unknown_mode_is_a_clear_error_when_the_spec_loads() -> None:
+    table = {"evaluator": "in_region", "subjects": ["jar"], "params": {"mode": "touches"}}
+    with pytest.raises(SpecError, match=r"params\.mode: expected one of 'centre', 'contained', 'fraction'"):
+        proposition_from_mapping("jar_in_goal", table, "recipe: success.jar_in_goal")
