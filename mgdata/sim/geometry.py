@@ -40,6 +40,17 @@ class LowestPoint:
         if unsupported:
             raise ValueError(f"LowestPoint: unsupported geom types {sorted(unsupported)}")
         self._size = model.geom_size
+        self._ids = ids
+        self._rbound = np.where(types == _G.mjGEOM_PLANE, np.inf, model.geom_rbound[ids])
+
+    def lower_bound(self, data: mujoco.MjData) -> float:
+        """A cheap bound ≤ the lowest point (each geom's bounding sphere): a test against a height far below
+        the geoms needs no exact computation."""
+        return float((data.geom_xpos[self._ids, 2] - self._rbound).min())
+
+    def below(self, data: mujoco.MjData, z: float) -> bool:
+        """Is the lowest point below ``z``? (exact; the bound answers most calls)"""
+        return self.lower_bound(data) < z and self(data) < z
 
     def __call__(self, data: mujoco.MjData) -> float:
         low = np.inf

@@ -133,6 +133,8 @@ def _near_top(scene: Scene, subject: str, owner: int, gap: float) -> Callable[[]
     lowest, box = LowestPoint(scene.model, scene.object_geom_ids(subject)), _box(scene, subject)
 
     def near() -> bool:
+        if lowest.lower_bound(scene.data) > max(t.z for t in tops) + gap:
+            return False
         low = lowest(scene.data)
         close = [t for t in tops if abs(low - t.z) <= gap]
         return bool(close) and any(t.overlaps(*_world_box(scene, *box)) for t in close)
@@ -143,7 +145,7 @@ def _near_top(scene: Scene, subject: str, owner: int, gap: float) -> Callable[[]
 def _dropped(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     limit = scene.floor_z + float(p["floor_margin"])
     lowest = LowestPoint(scene.model, scene.object_geom_ids(subject))
-    return lambda c: lowest(scene.data) < limit
+    return lambda c: lowest.below(scene.data, limit)
 
 
 def _upright(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
@@ -253,11 +255,13 @@ def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
              - v_hand[3:] - np.cross(v_hand[:3], point - d.xpos[hand]))
         return float(np.linalg.norm(v)), float(np.linalg.norm(v_obj[:3] - v_hand[:3]))
 
-    def check(c: Contacts) -> bool:
+    def check(c: Contacts) -> bool:  # cheapest tests first: most states fail one of them
+        if c.resting(obj, others):
+            return False
         for f, g in zip(fingers, finger_gaps, strict=True):
             if not (c.touches(f, obj) or g.near(d)):
                 return False
-        if c.resting(obj, others) or any(near() for near in on_fixed):
+        if any(near() for near in on_fixed):
             return False
         v, w = relative_speeds()
         return v <= vmax and w <= wmax
