@@ -2,18 +2,27 @@
 
 Each evaluator is compiled once per (subject, params) into a closure over precomputed ids, then called every
 control step with a :class:`Contacts` view of the current contacts. Names, parameters and defaults are
-declared once, in ``mgdata.spec.EVALUATORS``; this module implements exactly those:
+declared once, in ``mgdata.spec.EVALUATORS``; this module implements exactly those. Definitions, thresholds
+and the measurements behind them: ``docs/predicates.md``. In short:
 
 * ``dropped(floor_margin=0.05)``: the lowest point of the object's collision geometry is below floor + margin;
 * ``upright(max_tilt_deg)``: the object's +Z axis is within ``max_tilt_deg`` of world +Z;
-* ``on(support)``: the object touches ``support`` with a contact whose normal points up (≤ 45° from +Z) from
-  the support into the object, i.e. it rests on it;
+* ``on(support, gap_tol=0.0005)``: the support pushes the object up through a contact (normal ≤ 45° from +Z,
+  from the support into the object), or the object is at most ``gap_tol`` above it: for the table or floor
+  its lowest point within ``gap_tol`` of the top face over it, for objects or the robot a pair of geoms at
+  most ``gap_tol`` apart with the object's side above (≤ 45° from +Z). A sub-millimetre hop stays "on";
 * ``open(min_fraction=0.5)`` / ``closed(max_fraction=0.05)``: articulation fraction ≥ min / ≤ max;
-* ``touching(other)``: any contact between the object and ``other``;
+* ``touching(other, gap_tol=0.0)``: a contact between the two, or a gap of at most ``gap_tol``;
 * ``spilled(container, max_fraction=0.15)``: more than ``max_fraction`` of a liquid's spheres are outside
   the ``container``'s cavity (5 mm sideways margin, 3 cm headroom above the rim);
-* ``in_region(region="goal")``: the object's world bounding box intersects the goal sphere;
-* ``held()``: both fingers touch the object;
+* ``in_region(region="goal", mode="centre", min_fraction=0.5)``: the centre of the object's bounding box
+  (world frame, rotation included) is inside the region sphere; ``contained``: all 8 corners are;
+  ``fraction``: at least ``min_fraction`` of a fixed 8×8×8 grid of cell centres over the box is;
+* ``held(gap_tol=0.0005, max_speed=0.02, max_angular_speed=0.3)``: a stable grasp: both fingers touch the
+  object (or are within ``gap_tol``); nothing but the fingers pushes it up (a contact from anything else
+  with the normal ≤ 45° from +Z into the object; objects riding on or in it press it down and do not count),
+  nor does it stand within ``gap_tol`` of the table or floor; and it moves relative to the hand at most
+  ``max_speed`` (m/s, at its bounding-box centre) and ``max_angular_speed`` (rad/s);
 * ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
   subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
   instance itself).
@@ -130,6 +139,8 @@ def _near_top(scene: Scene, subject: str, owner: int, gap: float) -> Callable[[]
     """Is the lowest point of ``subject`` within ``gap`` of the top face of the fixed support ``owner``
     (table or floor), with the object's bounding box over that face?"""
     tops = [FlatTop(scene.model, scene.data, g) for g in np.flatnonzero(scene.geom_owner == owner)]
+    if not tops:
+        return lambda: False
     lowest, box = LowestPoint(scene.model, scene.object_geom_ids(subject)), _box(scene, subject)
 
     def near() -> bool:
