@@ -86,6 +86,10 @@ class GripperConfig:
         finger_condim: contact dimension of the finger geoms: 3 sliding friction only, 4 adds torsional
             friction (6 rolling too).
         finger_torsional_friction: torsional friction coefficient of the finger pads (m).
+        finger_solref: contact ``solref`` of the finger geoms (time constant s, damping ratio); the time
+            constant must be at least two physics timesteps.
+        finger_solmix: ``solmix`` weight of the finger geoms: a contact takes
+            ``solmix / (solmix + other's solmix)`` of its ``solref`` from the fingers.
     """
 
     open_ctrl: float = 0.25
@@ -94,6 +98,8 @@ class GripperConfig:
     damping: float = 100.0
     finger_condim: int = 4
     finger_torsional_friction: float = 0.02
+    finger_solref: tuple[float, float] = (0.005, 1.0)
+    finger_solmix: float = 100.0
 
     def __post_init__(self) -> None:
         lo, hi = self.ctrl_range
@@ -114,6 +120,11 @@ class GripperConfig:
         if self.finger_torsional_friction < 0:
             raise RecipeError(f"[gripper] finger_torsional_friction = {self.finger_torsional_friction!r}: "
                               "expected a number >= 0")
+        if not (self.finger_solref[0] > 0 and self.finger_solref[1] > 0):
+            raise RecipeError(f"[gripper] finger_solref = {list(self.finger_solref)}: expected [time "
+                              "constant s, damping ratio], both > 0")
+        if not self.finger_solmix > 0:
+            raise RecipeError(f"[gripper] finger_solmix = {self.finger_solmix!r}: expected a number > 0")
 
     def ctrl(self, command: float) -> float:
         """Map a gripper command (0 open … 1 closed, clipped) to the gripper actuator's control value."""
@@ -199,6 +210,8 @@ def load_panda_spec(*, decimate_visuals: bool = True, gripper: GripperConfig | N
             if geom.contype or geom.conaffinity:
                 geom.condim = gripper.finger_condim
                 geom.friction = [geom.friction[0], gripper.finger_torsional_friction, geom.friction[2]]
+                geom.solref = list(gripper.finger_solref)
+                geom.solmix = gripper.finger_solmix
     for site in spec.body(ROOT_BODY).sites:
         site.group = 4
     if decimate_visuals:
