@@ -9,8 +9,8 @@ The motion, as the paper describes it:
    the reachable ones), lift it, carry it so that its centre (the centre of its bounding volume) lands in the
    goal sphere, stop, and hold it there. The gate counts only this final hold: the arm commanded still, the
    jar at rest in the goal. The carry aims the centre at most ``goal_dx``/``goal_dy`` (1.2 cm each) from the
-   goal centre; the servos sag 3–13 mm (mostly down) under the jar's weight, so the settled centre lies
-   0.4–1.9 cm from the goal centre (52 carries measured, goal radius 5 cm; docs/generate.md).
+   goal centre; the servos sag 2.5–15 mm (mostly down) under the jar's weight, so the settled centre lies
+   0.4–1.9 cm from the goal centre (50 carries measured, goal radius 5 cm; docs/generate.md).
 
 Numbers come from ``recipes/jar.toml``: per-attempt draws in ``[variation]``, fixed tunables in ``[params]``.
 """

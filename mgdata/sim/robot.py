@@ -23,6 +23,11 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   torsional friction coefficient (``finger_condim``, ``finger_torsional_friction``) to model it. (The
   elliptic friction cone that stops a held jar creeping out of the fingers is a world option:
   ``mgdata.sim.world.Physics``.) Every scene built on this model (generator, grasp check, teleop) gets it;
+* stiff finger pads: MuJoCo's default soft contact (``solref`` 0.02 s) let the 22 N squeeze sink the pads up
+  to 4 mm into a jar wall 3–4 mm thick, and a grasped jar crept down in the fingers. ``finger_solref``
+  (0.005 s, critically damped) with ``finger_solmix`` (100: the pads' ``solref`` dominates the mix with any
+  object's) keeps the penetration under 0.4 mm and the slip under 0.4 mm over a 5 s hold (measured on five
+  jar tasks, docs/sim.md; tests/test_jar.py holds it to < 1 mm and ≤ 3 mm);
 * visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
 * the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.
 
