@@ -95,7 +95,7 @@ class AttemptResult:
 
 
 class _GatePassed(Exception):
-    """Internal: the goal held for the gate's window; stop executing."""
+    """Internal: success held at rest for the gate's window after the motion; stop executing."""
 
 
 class _TimedSink:
