@@ -1,8 +1,10 @@
-"""The jar family end to end: base tasks, a kept demonstration, determinism, a forced violation, the CLI,
-and resuming after a real SIGKILL."""
+"""The jar family end to end: base tasks, kept demonstrations measured with raw MuJoCo (the hold at rest in
+the goal, the grip, the wrist camera), determinism, a forced violation, the CLI, and resuming after a real
+SIGKILL."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -12,9 +14,11 @@ import sys
 import time
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
+from mgdata.engine import segment as s
 from mgdata.engine.executor import Executor
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir, recipes_dir
@@ -22,6 +26,9 @@ from mgdata.record.episode import MemorySink
 from mgdata.record.reader import DatasetReader
 from mgdata.record.video import decode
 from mgdata.sim.assets import get_model
+from mgdata.sim.cameras import WRIST, WRIST_BODY_GEOM
+from mgdata.sim.controller import JointController
+from mgdata.sim.scene import Scene
 from mgdata.tasks.base import base_task, base_tasks
 from mgdata.tasks.recipe import load_recipe
 from skeletons.jar import JarSkeleton
@@ -74,14 +81,105 @@ def test_base_tasks_follow_the_layout_rules(recipe) -> None:  # type: ignore[no-
     assert len({t.object("jar").model for t in tasks}) > 8  # the jar model varies
 
 
-def test_a_jar_demonstration_is_kept_and_reproducible(recipe, grasps) -> None:  # type: ignore[no-untyped-def]
-    runs = []
-    for _ in range(2):
-        ex = Executor(base_task(recipe, 0), recipe, grasps=grasps, render=False)
-        sink = MemorySink()
-        runs.append((ex.run(0, sink), sink))
+class RawProbe(JointController):
+    """The executor's controller, measuring the jar, fingers and wrist camera with raw MuJoCo after every
+    control step (``states[t - 1]`` describes the state of frame ``t``), independently of mgdata's
+    predicates and gate."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        m = scene.model
+        self.jar = scene.object_body("jar")
+        geo = scene.object_model("jar").geometry
+        self.centre_local = np.array([0.0, 0.0, scene.objects["jar"].size[2] / 2.0])  # bounding-box centre
+        self.hinge = m.jnt_qposadr[m.joint("jar/lid_hinge").id]
+        self.open_angle = geo["open_angle"]
+        self.jar_geoms = set(scene.object_geom_ids("jar").tolist())
+        self.fingers = [set(np.flatnonzero(m.geom_bodyid == m.body(b).id).tolist())
+                        for b in ("left_finger", "right_finger")]
+        self.table = set(np.flatnonzero(m.geom_bodyid == m.body("table").id).tolist())
+        self.camera, self.cam_body = m.camera(WRIST).id, m.geom(WRIST_BODY_GEOM).id
+        rigid = {m.body("hand").id, m.body("link7").id}  # the camera's own body and the flange it bolts to
+        self.others = [g for g in range(m.ngeom) if m.geom_bodyid[g] not in rigid
+                       and (m.geom_contype[g] or m.geom_conaffinity[g] or g in self.table)]
+        self.states: list[dict] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        pairs = [(int(c.geom1), int(c.geom2), float(c.dist)) for c in d.contact[:d.ncon]] if d.ncon else []
+
+        def touching(a: set, b: set) -> list[float]:
+            return [dist for g1, g2, dist in pairs if (g1 in a and g2 in b) or (g2 in a and g1 in b)]
+
+        fingers = [touching(f, self.jar_geoms) for f in self.fingers]
+        clear = min(mujoco.mj_geomDistance(m, d, self.cam_body, g, 0.05, None) for g in self.others)
+        self.states.append({
+            "centre": d.xpos[self.jar] + d.xmat[self.jar].reshape(3, 3) @ self.centre_local,
+            "lid_fraction": float(d.qpos[self.hinge]) / self.open_angle,
+            "fingers_touch": all(fingers), "penetration": -min([0.0, *fingers[0], *fingers[1]]),
+            "table_contact": bool(touching(self.table, self.jar_geoms)),
+            "hand_T_jar": np.linalg.inv(_pose(d, m.body("hand").id)) @ _pose(d, self.jar),
+            "camera_z": float(d.cam_xpos[self.camera][2]), "camera_clearance": float(clear),
+        })
+
+
+def _pose(d: mujoco.MjData, body: int) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = d.xmat[body].reshape(3, 3), d.xpos[body]
+    return T
+
+
+def _probed_run(recipe, grasps, task: int, skeleton=None):  # type: ignore[no-untyped-def]
+    ex = Executor(base_task(recipe, task), recipe, grasps=grasps, render=False)
+    ex.controller = probe = RawProbe(ex.scene)
+    if skeleton is not None:
+        ex.skeleton = skeleton
+    sink = MemorySink()
+    try:
+        result = ex.run(0, sink)
+        ex.scene.reset()
+        camera_start = float(ex.scene.data.cam_xpos[probe.camera][2])
+        goal, radius = np.asarray(ex.task.goal.pos), ex.task.goal.radius
+    finally:
         ex.close()
-    (res, sink), (res2, sink2) = runs
+    return result, sink, probe.states, camera_start, goal, radius
+
+
+@pytest.fixture(scope="module")
+def demos(recipe, grasps):  # type: ignore[no-untyped-def]
+    """Kept demonstrations of three base tasks, with raw measurements of every state."""
+    return [_probed_run(recipe, grasps, task) for task in (0, 1, 2)]
+
+
+def test_kept_demos_end_with_the_closed_jar_held_at_rest_in_the_goal(recipe, demos) -> None:  # type: ignore[no-untyped-def]
+    hold, dt = recipe.tasks.hold_steps, 0.05
+    for result, sink, states, _, goal, radius in demos:
+        frames, meta = sink.episodes[0]
+        assert result.kept and meta.kept and meta.success and len(states) == len(frames) - 1
+        assert all(t is None for t in meta.t_violation.values()) and not any(f.violated.any() for f in frames)
+        last = states[-hold:]  # the last hold_steps frames
+        assert all(f.success for f in frames[-hold:])
+        assert all(np.array_equal(f.action, frames[-1].action) for f in frames[-hold - 1:])  # commanded still
+        assert frames[-1].action[7] == 1.0  # gripper closed
+        for st in last:
+            assert np.linalg.norm(st["centre"] - goal) < radius, "jar centre outside the goal sphere"
+            assert st["lid_fraction"] <= 0.05  # the lid is shut
+            assert st["fingers_touch"] and not st["table_contact"]
+        speeds = [np.linalg.norm(b["centre"] - a["centre"]) / dt for a, b in itertools.pairwise(last)]
+        assert max(speeds) <= recipe.tasks.rest_linear_speed, f"jar still moving: {max(speeds):.4f} m/s"
+        # the motion really ended before the window: the last command change comes before it
+        actions = [f.action for f in frames]
+        changes = [i for i in range(1, len(actions)) if not np.array_equal(actions[i], actions[i - 1])]
+        assert len(frames) - 1 - changes[-1] > hold
+
+
+def test_a_jar_demonstration_is_reproducible(recipe, grasps, demos) -> None:  # type: ignore[no-untyped-def]
+    ex = Executor(base_task(recipe, 0), recipe, grasps=grasps, render=False)
+    sink2 = MemorySink()
+    res2 = ex.run(0, sink2)
+    ex.close()
+    res, sink = demos[0][:2]
     assert res.kept and res.stage is None and res.verdict
     assert res.t_engage is not None and all(t is None for t in res.t_violation.values())
     frames, meta = sink.episodes[0]
@@ -93,6 +191,37 @@ def test_a_jar_demonstration_is_kept_and_reproducible(recipe, grasps) -> None:  
     for a, b in zip(frames, sink2.episodes[0][0], strict=True):
         assert np.array_equal(a.state, b.state) and np.array_equal(a.action, b.action)
         assert np.array_equal(a.labels, b.labels) and np.array_equal(a.dfa_state, b.dfa_state)
+
+
+def test_wrist_camera_never_goes_below_the_table_or_into_geometry(demos) -> None:  # type: ignore[no-untyped-def]
+    """Every state of the kept demos: the eye above the table top (z = 0) and the camera's body (the eye sits
+    on its front face) clear of every geometry but the hand it is bolted to."""
+    for _, _, states, camera_start, _, _ in demos:
+        assert camera_start > 0.0
+        assert min(st["camera_z"] for st in states) > 0.0
+        assert min(st["camera_clearance"] for st in states) > 0.0
+
+
+class _LiftAndHold(JarSkeleton):
+    """The jar skeleton up to the lift, then 5 s (100 control steps) holding the lifted jar still."""
+
+    def segments(self, ctx):  # type: ignore[no-untyped-def]
+        segs = list(super().segments(ctx))
+        lift = [seg.name for seg in segs].index("lift")
+        return [*segs[:lift + 1], s.hold("hold_5s", steps=100, gripper="close")]
+
+
+def test_grasped_jar_does_not_slip_or_sink_into_the_fingers(recipe, grasps) -> None:  # type: ignore[no-untyped-def]
+    """Grip quality (recipes/sim.toml [gripper]): slip of the jar in the hand frame over a 5 s hold <= 3 mm,
+    finger-jar penetration (``data.contact.dist``) < 1 mm at every step of the attempt."""
+    for task in (0, 3):
+        result, _, states, _, _, _ = _probed_run(recipe, grasps, task, _LiftAndHold())
+        assert result.stage == "goal_not_reached" and result.segment == "settle"  # every segment ran
+        held = states[-(100 + recipe.tasks.settle_steps):]  # the 5 s hold, then the settling steps
+        assert all(st["fingers_touch"] and not st["table_contact"] for st in held)
+        slip = np.linalg.norm(held[100]["hand_T_jar"][:3, 3] - held[0]["hand_T_jar"][:3, 3])
+        assert slip <= 0.003, f"task {task}: the jar slipped {slip * 1000:.2f} mm in 5 s"
+        assert max(st["penetration"] for st in states) < 0.001
 
 
 def test_missing_grasps_fail_with_a_hint(recipe) -> None:  # type: ignore[no-untyped-def]

@@ -3,10 +3,14 @@
 Per attempt: reset the scene to the task's initial state; draw the variation from (family, task, draw, seed);
 for each segment of the skeleton resolve its target, plan it (IK + OMPL + toppra, a straight line, a reversal
 or a pause) from the last commanded configuration, and execute it at 20 Hz, labelling, monitoring and
-recording every control step; after the last segment hold still for up to ``settle_steps``. The attempt ends
+recording every control step; after the last segment hold still for up to ``settle_steps``. The steps after
+the last motion segment (the final ``hold`` segments and the settling steps: the arm commanded still) are
+the *holding* steps. The attempt ends
 
-* as **kept** once the goal predicate has held for ``hold_steps`` consecutive steps with ν = 1,
-* as ``unsafe`` at the first step the monitor reports a violation,
+* as **kept** once success (the goal predicate ∧ the goal's objects at rest, the recorded success column)
+  has held on ``hold_steps`` consecutive holding steps, with no violation at any step
+  (:mod:`mgdata.engine.gate`); the episode then ends with that hold;
+* as ``unsafe`` at the first step the monitor reports a violation (before engagement too);
 * as ``timeout`` at the family's step horizon, or with the failure stage of a planning step, a runtime target
   or ``goal_not_reached``.
 
@@ -25,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed, SuccessGate, keep
+from mgdata.engine.gate import AttemptFailed, RestCheck, SuccessGate, keep
 from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
 from mgdata.engine.timing import Timings
@@ -47,6 +51,7 @@ from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
+from mgdata.sim.predicates import resolve
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.world import Physics
@@ -63,7 +68,7 @@ class AttemptResult:
 
     Attributes:
         task_id, draw, seed: which attempt this was.
-        kept: the gate accepted it (goal held for the window, ν = 1).
+        kept: the gate accepted it (success held at rest after the motion, no violation).
         stage, reason, segment: why it failed (``None`` when kept).
         steps: control steps (actions) executed; the episode has ``steps + 1`` frames.
         verdict: the safety verdict ν; ``t_engage``/``t_violation``: first engagement / violation step
@@ -90,7 +95,7 @@ class AttemptResult:
 
 
 class _GatePassed(Exception):
-    """Internal: the goal held for the gate's window; stop executing."""
+    """Internal: success held at rest for the gate's window after the motion; stop executing."""
 
 
 class _TimedSink:
@@ -172,6 +177,10 @@ class Executor:
         self.planner = MotionPlanner(self.scene.model, motion)
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None
         self._goal = Labeller(self.scene, SafetySpec(f"{task.family}_goal", (), recipe.success))
+        subjects = dict.fromkeys(n for p in recipe.success for s in p.subjects
+                                 for n in resolve(self.scene, s, "success subject"))
+        self._rest = RestCheck(self.scene.model, [self.scene.object_body(n) for n in subjects],
+                               linear=recipe.tasks.rest_linear_speed, angular=recipe.tasks.rest_angular_speed)
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}
 
@@ -197,14 +206,18 @@ class Executor:
         stage = reason = segment = None
         recorder.start()
         try:
-            for seg in self.skeleton.segments(ctx):
+            segments = list(self.skeleton.segments(ctx))
+            last_motion = max((i for i, seg in enumerate(segments) if seg.kind != "hold"), default=-1)
+            for i, seg in enumerate(segments):
                 segment = seg.name
+                state.holding = i > last_motion
                 self._segment(seg, ctx, state)
-            segment = "settle"
+            segment, state.holding = "settle", True
             for _ in range(settings.settle_steps):
                 self._step(ctx.q_cmd, state.grip, state)
-            raise AttemptFailed("goal_not_reached", f"goal held for at most {gate.streak} consecutive steps "
-                                f"after {settings.settle_steps} settling steps (needs {gate.hold_steps})")
+            raise AttemptFailed("goal_not_reached", f"success held at rest for at most {gate.best} "
+                                f"consecutive steps after the motion ended, {settings.settle_steps} settling "
+                                f"steps included (needs {gate.hold_steps})")
         except _GatePassed:
             segment = None
         except AttemptFailed as fail:
@@ -215,7 +228,7 @@ class Executor:
         except SimulationError as fail:
             stage, reason = "sim_diverged", str(fail)
         ok = verdict(recorder.t_violation, recorder.t_engage)
-        kept = stage is None and keep(gate.passed, ok)
+        kept = stage is None and keep(gate.passed, recorder.first_violation)
         meta, grasp_id = None, ctx.memo.get("grasp_id")
         t_engage, t_violation = recorder.t_engage, recorder.first_violation
         if kept or keep_failed:
@@ -228,7 +241,9 @@ class Executor:
                              t_engage, t_violation, grasp_id, meta, timings)
 
     def _success(self, ctx: Context) -> bool:
-        return bool(np.all(self._goal.labels())) and self.skeleton.success_extra(ctx)
+        """The success column: goal predicate ∧ the skeleton's extra check ∧ the goal's objects at rest."""
+        return (bool(np.all(self._goal.labels())) and self.skeleton.success_extra(ctx)
+                and self._rest.at_rest(self.scene.data))
 
     # -- segments ------------------------------------------------------------------------------------------
     def _segment(self, seg: MotionSegment, ctx: Context, state: _Run) -> None:
@@ -298,7 +313,7 @@ class Executor:
         if monitor.t_violation is not None:
             names = [cid for cid, t in state.recorder.first_violation.items() if t is not None]
             raise AttemptFailed("unsafe", f"{', '.join(names)} violated at step {monitor.t_violation}")
-        if state.gate.update(state.recorder.success):
+        if state.gate.update(state.recorder.success, state.holding):
             raise _GatePassed
         if state.steps >= state.horizon:
             raise AttemptFailed("timeout", f"horizon of {state.horizon} control steps reached")
@@ -315,3 +330,5 @@ class _Run:
     horizon: int
     steps: int = 0
     grip: float = 0.0
+    holding: bool = False
+    """The current step is a holding step: the last motion segment has finished, the arm commanded still."""

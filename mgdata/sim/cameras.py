@@ -8,7 +8,11 @@ looks at the workspace point ``base + 0.45·fwd + 0.22·z``. The shipped placeme
 * ``front``    (the reference's "opposite"): ``base + 1.65·fwd + 0.9·z``, facing the robot;
 * ``left`` / ``right``: ``base ± 1.0·left + 0.2·fwd + 0.9·z``;
 * ``shoulder`` (left shoulder): ``base − 0.43·fwd + 0.55·left + 0.9·z``;
-* ``wrist``: on the hand, beside the fingers, looking along the approach axis (hand +Z) past the fingertips.
+* ``wrist``: where a real Franka wrist camera sits: a RealSense-sized body (90 × 25 × 25 mm) on the hand's
+  −X face at the flange, behind the fingers, looking along the approach axis (hand +Z) at the fingertips.
+  The camera body is a colliding robot geom (``wrist_camera``), so planning keeps it out of the table and
+  the objects like any other link, and the eye sits on its front face: the eye is never inside geometry,
+  and never below the table top.
 
 The camera names are a contract (observations list them); only their placement is tunable.
 """
@@ -24,6 +28,8 @@ from mgdata.errors import RecipeError
 
 THIRD_PERSON: tuple[str, ...] = ("front", "left", "right", "shoulder")
 WRIST = "wrist"
+WRIST_BODY_GEOM = "wrist_camera"
+"""Name of the wrist camera's body geom (a box on the hand)."""
 CAMERA_NAMES: tuple[str, ...] = (*THIRD_PERSON, WRIST)
 """All cameras, in the order observations list them."""
 
@@ -39,7 +45,9 @@ class CameraLayout:
         look_at: the point the third-person cameras look at, in the robot base frame (fwd, left, up; m).
         front, left, right, shoulder: each third-person camera's eye in the robot base frame (m).
         wrist_eye, wrist_target: the wrist camera's eye and look-at point in the hand frame (hand +Z: the
-            approach axis; the fingers open along Y).
+            approach axis; the fingers open along Y; the hand's own shell spans x ∈ ±0.032 m).
+        wrist_body: half extents (m) of the wrist camera's body, a box in the hand frame whose front face
+            (+Z) is centred on ``wrist_eye``.
         image_size: default image side (pixels) where a recipe or task does not set one.
     """
 
@@ -50,8 +58,9 @@ class CameraLayout:
     left: Vec3 = (0.2, 1.0, 0.9)
     right: Vec3 = (0.2, -1.0, 0.9)
     shoulder: Vec3 = (-0.43, 0.55, 0.9)
-    wrist_eye: Vec3 = (0.08, 0.0, 0.0)
-    wrist_target: Vec3 = (0.0, 0.0, 0.22)
+    wrist_eye: Vec3 = (-0.05, 0.0, 0.03)
+    wrist_target: Vec3 = (0.0, 0.0, 0.2)
+    wrist_body: Vec3 = (0.0125, 0.045, 0.0125)
     image_size: int = 256
 
     def __post_init__(self) -> None:
@@ -65,6 +74,9 @@ class CameraLayout:
             if np.hypot(view[0], view[1]) < 1e-6:
                 raise RecipeError(f"[cameras] {key} = {list(getattr(self, key))}: the camera must not stand "
                                   f"straight above or below look_at = {list(self.look_at)}")
+        if min(self.wrist_body) <= 0.0:
+            raise RecipeError(f"[cameras] wrist_body = {list(self.wrist_body)}: expected three half extents "
+                              "> 0 (m)")
         view = np.subtract(self.wrist_target, self.wrist_eye)
         if np.hypot(view[1], view[2]) < 1e-6:
             raise RecipeError(f"[cameras] wrist_target = {list(self.wrist_target)}: expected a point away "
@@ -98,7 +110,8 @@ def base_frame(base: tuple[float, float, float], yaw: float) -> tuple[np.ndarray
 
 def add_cameras(spec: mujoco.MjSpec, base: tuple[float, float, float], yaw: float, hand_body: str,
                 layout: CameraLayout) -> None:
-    """Add the five cameras to ``spec`` (third-person ones in the world, ``wrist`` on ``hand_body``)."""
+    """Add the five cameras to ``spec`` (third-person ones in the world; ``wrist`` and its colliding body
+    geom on ``hand_body``)."""
     pos, rot = base_frame(base, yaw)
     target = pos + rot @ np.array(layout.look_at)
     for name in THIRD_PERSON:
@@ -106,5 +119,8 @@ def add_cameras(spec: mujoco.MjSpec, base: tuple[float, float, float], yaw: floa
         quat = look_at_quat(eye, target, np.array([0.0, 0.0, 1.0]))
         spec.worldbody.add_camera(name=name, pos=eye.tolist(), quat=quat.tolist(), fovy=layout.fovy)
     quat = look_at_quat(np.array(layout.wrist_eye), np.array(layout.wrist_target), np.array([1.0, 0.0, 0.0]))
-    spec.body(hand_body).add_camera(name=WRIST, pos=list(layout.wrist_eye), quat=quat.tolist(),
-                                    fovy=layout.wrist_fovy)
+    hand = spec.body(hand_body)
+    hand.add_camera(name=WRIST, pos=list(layout.wrist_eye), quat=quat.tolist(), fovy=layout.wrist_fovy)
+    centre = np.array(layout.wrist_eye) - np.array([0.0, 0.0, layout.wrist_body[2]])
+    hand.add_geom(name=WRIST_BODY_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(layout.wrist_body),
+                  pos=centre.tolist(), rgba=[0.16, 0.16, 0.18, 1.0], group=2, mass=0.0)

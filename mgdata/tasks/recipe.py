@@ -54,6 +54,8 @@ class TaskSettings:
     horizon: int
     hold_steps: int = 10
     settle_steps: int = 40
+    rest_linear_speed: float = 0.005  # m/s: the goal's objects count as at rest below this (the gate)
+    rest_angular_speed: float = 0.05  # rad/s: … and below this
     cameras: tuple[str, ...] = CAMERAS
     image_size: int = field(default_factory=_default_image_size)  # recipes/sim.toml [cameras] image_size
 
@@ -141,7 +143,8 @@ def _load_spec(path: Path, src: str) -> SafetySpec:
 
 def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
     where = f"{src}: [tasks]"
-    known = {"count", "seed", "horizon", "hold_steps", "settle_steps", "cameras", "image_size"}
+    rest_keys = ("rest_linear_speed", "rest_angular_speed")
+    known = {"count", "seed", "horizon", "hold_steps", "settle_steps", *rest_keys, "cameras", "image_size"}
     if set(table) - known:
         raise RecipeError(f"{where} unknown key(s) {sorted(set(table) - known)}; expected {sorted(known)}")
     ints = {k: _get(table, k, int, where) for k in ("count", "seed", "horizon")}
@@ -152,12 +155,16 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
         low = 0 if k in ("seed", "settle_steps") else 1
         if v < low:
             raise RecipeError(f"{where} {k} = {v} is out of range (expected an integer >= {low})")
+    rest = {k: _get(table, k, float, where) for k in rest_keys if k in table}
+    for k, v in rest.items():
+        if not v > 0:
+            raise RecipeError(f"{where} {k} = {v} is out of range (expected a speed > 0)")
     cameras = tuple(table.get("cameras", CAMERAS))
     bad = [c for c in cameras if c not in CAMERAS]
     if bad or not cameras:
         raise RecipeError(f"{where} cameras = {list(cameras)}: expected a non-empty subset of "
                           f"{list(CAMERAS)}")
-    return TaskSettings(cameras=cameras, **ints)
+    return TaskSettings(cameras=cameras, **ints, **rest)
 
 
 def _range(raw: Any, where: str) -> tuple[float, float]:

@@ -46,25 +46,37 @@ def test_variation_draws_reproduce_and_stay_in_range() -> None:
     assert a.as_meta()["draw"] == 5
 
 
-def test_gate_needs_consecutive_steps() -> None:
+def test_gate_needs_consecutive_holding_steps() -> None:
     gate = SuccessGate(hold_steps=3)
     pattern = [True, True, False, True, True, True, False]
     passed = [gate.update(x) for x in pattern]
     assert passed == [False, False, False, False, False, True, True]  # latches
-    assert gate.passed_at == 5
-    assert keep(gate.passed, verdict=True) and not keep(gate.passed, verdict=False)
+    assert gate.passed_at == 5 and gate.best == 3
     gate.reset()
-    assert not gate.passed and gate.streak == 0
+    assert not gate.passed and gate.streak == 0 and gate.best == 0
+    # success while the arm still moves does not count, however long it lasts
+    for _ in range(20):
+        assert not gate.update(True, holding=False)
+    assert [gate.update(True, holding=True) for _ in range(3)] == [False, False, True]
+
+
+def test_kept_means_no_violation_at_any_step() -> None:
+    assert keep(True, {"a": None, "b": None})
+    assert not keep(False, {"a": None})
+    # a violation before engagement keeps ν = 1 (the paper's verdict) but never a demonstration
+    assert not keep(True, {"a": None, "b": 0})
+    assert not keep(True, {"a": 17})
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.booleans(), max_size=60), st.integers(1, 12))
-def test_gate_matches_reference_semantics(steps: list[bool], hold: int) -> None:
+@given(st.lists(st.tuples(st.booleans(), st.booleans()), max_size=60), st.integers(1, 12))
+def test_gate_matches_reference_semantics(steps: list[tuple[bool, bool]], hold: int) -> None:
     gate = SuccessGate(hold_steps=hold)
-    for x in steps:
-        gate.update(x)
-    # Reference: some window of `hold` consecutive True values exists.
-    expected = any(all(steps[i:i + hold]) for i in range(len(steps) - hold + 1))
+    for success, holding in steps:
+        gate.update(success, holding)
+    # Reference: some window of `hold` consecutive steps that are all holding steps with success exists.
+    ok = [s and h for s, h in steps]
+    expected = any(all(ok[i:i + hold]) for i in range(len(ok) - hold + 1))
     assert gate.passed == expected
 
 

@@ -27,7 +27,9 @@ def test_generate_validate_list(tmp_path: Path) -> None:
     checked = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
     assert all(g.status in ("valid", "invalid") for g in checked)
     assert all("lifted" in g.detail or "unreachable" in g.detail for g in checked)
-    assert sum(g.status == "valid" for g in checked) >= 20
+    # each side direction comes in two rolls; the one that puts the wrist camera's body under the table top is
+    # rejected (in collision), the other must hold: every direction keeps a valid grasp
+    assert len({g.id.rsplit("_", 1)[0] for g in checked if g.status == "valid"}) >= 11
     listed = _run("list", "--dir", str(tmp_path))
     assert "jar/hinged_05" in listed.stdout and "24" in listed.stdout
     # regenerating keeps annotated grasps and replaces generated ones (and their results)

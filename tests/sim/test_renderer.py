@@ -8,7 +8,7 @@ import pytest
 
 from mgdata.errors import SceneError
 from mgdata.sim import robot
-from mgdata.sim.cameras import CAMERA_NAMES, THIRD_PERSON
+from mgdata.sim.cameras import CAMERA_NAMES, THIRD_PERSON, WRIST, WRIST_BODY_GEOM
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene
 
@@ -70,3 +70,28 @@ def test_rig_errors_and_close(jar_scene: Scene) -> None:
     rig.close()
     with pytest.raises(SceneError, match="after close"):
         rig.render()
+
+
+def test_wrist_camera_sits_on_its_body_behind_the_fingertips(jar_scene: Scene) -> None:
+    """The wrist camera is mounted like a real one: its eye on the front face of a colliding camera body
+    bolted outside the hand's shell, behind the fingers, seeing both fingertips."""
+    jar_scene.reset()
+    m, d = jar_scene.model, jar_scene.data
+    hand, cam, body = m.body(robot.HAND_BODY).id, m.camera(WRIST).id, m.geom(WRIST_BODY_GEOM).id
+    assert m.cam_bodyid[cam] == hand and m.geom_bodyid[body] == hand
+    assert body in robot.robot_geom_ids(m)  # collides: planning keeps it out of the table and objects
+    front = m.geom_pos[body] + np.array([0.0, 0.0, m.geom_size[body, 2]])
+    assert np.allclose(m.cam_pos[cam], front)  # the eye is on the body's front face (hand frame)
+    fingers = [m.body(b).id for b in robot.FINGER_BODIES]
+    assert m.cam_pos[cam][2] < m.body_pos[fingers[0]][2]  # behind the fingers along the approach axis
+    shell = [g for g in range(m.ngeom) if m.geom_bodyid[g] == hand and m.geom_contype[g] and g != body]
+    assert min(mujoco.mj_geomDistance(m, d, body, g, 0.05, None) for g in shell) > 0.0  # outside the hand
+    r = mujoco.Renderer(m, 256, 256)
+    try:
+        r.enable_segmentation_rendering()
+        r.update_scene(d, camera=WRIST)
+        seg = r.render()
+    finally:
+        r.close()
+    seen = m.geom_bodyid[seg[..., 0][seg[..., 1] == mujoco.mjtObj.mjOBJ_GEOM]]
+    assert all((seen == f).sum() >= MIN_PIXELS for f in fingers), "the wrist camera does not see both fingers"

