@@ -23,6 +23,7 @@ from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import Proposition, SafetySpec
 from mgdata.tasks.taskspec import ObjectPlacement
 
+HELD_GAP_TOL = 0.0005  # m: ``held``'s documented default; closer to the table top than this is support
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 
 
@@ -30,7 +31,7 @@ DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 class Step:
     held: bool
     fingers: tuple[bool, bool]  # left, right finger touch the carton
-    support: list[str]  # other things touching the carton with a normal that pushes it up (> 45°)
+    support: list[str]  # things pushing the carton up (normal within 45° of +Z), or the table within 0.5 mm
     others: list[str]  # everything else touching the carton except the fingers and the candy
     candy_nz: list[float]  # normal z of candy contacts, pointing from the candy into the carton
     speed: float  # m/s of the carton's centre in the hand frame
@@ -56,6 +57,13 @@ def relative_motion(scene: Scene) -> tuple[float, float]:
     return float(np.linalg.norm(p1 - p0) / m.opt.timestep), float(angle / m.opt.timestep)
 
 
+def lowest_box_point(m: mujoco.MjModel, d: mujoco.MjData) -> float:
+    """World z of the carton's lowest corner (the table top is z = 0)."""
+    box = m.geom("box/body").id
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * m.geom_size[box]
+    return float((d.geom_xpos[box] + corners @ d.geom_xmat[box].reshape(3, 3).T)[:, 2].min())
+
+
 def measure(scene: Scene, held: bool) -> Step:
     m, d = scene.model, scene.data
     left, right = m.body("left_finger").id, m.body("right_finger").id
@@ -76,6 +84,8 @@ def measure(scene: Scene, held: bool) -> Step:
             others.append(label)
             if nz >= np.cos(np.deg2rad(45.0)):
                 support.append(label)
+    if lowest_box_point(m, d) <= HELD_GAP_TOL:  # resting within the documented tolerance on the table top
+        support.append("table gap")
     speed, spin = relative_motion(scene)
     return Step(held, (fingers[0], fingers[1]), support, others, candy, speed, spin)
 
