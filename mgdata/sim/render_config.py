@@ -37,8 +37,8 @@ class RenderConfig:
     numslices: int = 16
     numstacks: int = 8
     numquads: int = 1
-    far_lod: float = 0.0
-    far_lod_distance: float = 1.3
+    far_lod: float = 0.05
+    far_lod_distance: float = 1.0
 
     def __post_init__(self) -> None:
         if not self.plane_grid > 0:
