@@ -10,9 +10,12 @@ Prints, for the hinged jar with a cherry inside (the jar family's scene):
 * labelling (4 propositions) + monitor (3 DFAs) cost per control step (target ≤ 100 µs);
 * scene build and reset times, and a 63-sphere liquid scene's physics rate (CG + elliptic cone).
 
-``--sheet PATH`` also writes the five views of the jar scene as a contact sheet PNG (docs/jar_views.png).
+``--sheet PATH`` also writes the five views of the jar scene as a contact sheet PNG (docs/jar_views.png);
+``--comparison PATH`` writes the reference path's views above the camera rig's and their difference ×4
+(docs/render_comparison.png).
 
     LP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_sim.py [--sheet docs/jar_views.png]
+        [--comparison docs/render_comparison.png]
 """
 
 from __future__ import annotations
@@ -102,6 +105,14 @@ def render_rates(paths: dict[str, Callable[[], object]], rounds: int, n: int = 1
     return rates
 
 
+def write_png(path: Path, rgb: np.ndarray) -> None:
+    import cv2
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    print(f"wrote {path}")
+
+
 def physics_rate(scene: Scene, steps: int) -> float:
     scene.reset()
     t0 = time.process_time()
@@ -113,6 +124,7 @@ def physics_rate(scene: Scene, steps: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sheet", type=Path, help="write the jar scene's five views here (PNG)")
+    parser.add_argument("--comparison", type=Path, help="write before/after views (PNG)")
     parser.add_argument("--rounds", type=int, default=9, help="interleaved timing rounds of the render paths")
     args = parser.parse_args()
 
@@ -135,18 +147,20 @@ def main() -> None:
     scene.reset()
     with CameraRig(scene) as rig, ReferenceRig(scene) as ref:
         rates = render_rates({"rig": rig.render, "reference": ref.render}, args.rounds)
-        images = rig.render()
+        images, before = rig.render(), ref.render()
     fast, slow = (statistics.median(rates[k]) for k in ("rig", "reference"))
     print(f"render: {fast:.1f} five-camera observations per CPU-second at 256² (reference path {slow:.1f}; "
           f"×{fast / slow:.2f}; medians of {args.rounds} rounds, "
           f"LP_NUM_THREADS={os.environ['LP_NUM_THREADS']})"
           "  [target ≥ 75]")
     if args.sheet:
-        import cv2
-
-        args.sheet.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(args.sheet), cv2.cvtColor(contact_sheet(images), cv2.COLOR_RGB2BGR))
-        print(f"wrote {args.sheet}")
+        write_png(args.sheet, contact_sheet(images))
+    if args.comparison:
+        diff = {f"|diff| x4 {c}": np.minimum(np.abs(images[c].astype(int) - before[c].astype(int)) * 4, 255)
+                .astype(np.uint8) for c in images}
+        write_png(args.comparison, np.concatenate([
+            contact_sheet({f"before {c}": img for c, img in before.items()}),
+            contact_sheet({f"after {c}": img for c, img in images.items()}), contact_sheet(diff)]))
 
     # Labelling + monitor on the states of a short moving rollout (contacts vary step to step).
     spec = scene.task.safety
