@@ -85,9 +85,11 @@ def context_model(model: mujoco.MjModel, size: int, config: RenderConfig) -> muj
 def camera_option(model: mujoco.MjModel, camera: int, config: RenderConfig) -> mujoco.MjvOption:
     """The visualisation options for ``camera``: MuJoCo's defaults, with the robot's far level of detail
     (``robot.FAR_LOD_GROUP`` instead of ``robot.NEAR_LOD_GROUP``) for a fixed camera at least
-    ``config.far_lod_distance`` from the robot base."""
+    ``config.far_lod_distance`` from the robot base, if the model has that level (a model built without it
+    keeps the near level everywhere)."""
     option = mujoco.MjvOption()
-    if config.far_lod > 0 and model.cam_bodyid[camera] == 0:
+    has_far = bool((model.geom_group == robot.FAR_LOD_GROUP).any())
+    if config.far_lod > 0 and has_far and model.cam_bodyid[camera] == 0:
         base = model.body(robot.ROOT_BODY).pos  # the base is welded to the world
         if np.linalg.norm(model.cam_pos[camera] - base) >= config.far_lod_distance:
             option.geomgroup[robot.NEAR_LOD_GROUP] = 0

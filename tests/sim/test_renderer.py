@@ -190,6 +190,9 @@ def test_far_cameras_draw_the_far_level_and_near_ones_the_near_level(jar_scene: 
         assert not seen & set((near if is_far else far).tolist()), (cam, is_far)
     off = camera_option(m, m.camera("front").id, dataclasses.replace(config, far_lod=0.0))
     assert off.geomgroup[robot.NEAR_LOD_GROUP] and not off.geomgroup[robot.FAR_LOD_GROUP]
+    plain = _near_only(jar_scene).model  # e.g. a scene stored before the far level existed
+    kept = camera_option(plain, plain.camera("front").id, config)
+    assert kept.geomgroup[robot.NEAR_LOD_GROUP] and not kept.geomgroup[robot.FAR_LOD_GROUP]
 
 
 def test_the_far_level_does_not_change_physics(jar_scene: Scene) -> None:
