@@ -23,6 +23,7 @@ from typing import Any
 from mgdata.paths import recipes_dir
 from mgdata.settings import load_settings, settings_from_dict
 from mgdata.sim.cameras import CameraLayout
+from mgdata.sim.render_config import RenderConfig
 from mgdata.sim.robot import GripperConfig
 from mgdata.sim.world import Physics
 
@@ -36,6 +37,7 @@ class SimConfig:
     physics: Physics = field(default_factory=Physics)
     gripper: GripperConfig = field(default_factory=GripperConfig)
     cameras: CameraLayout = field(default_factory=CameraLayout)
+    render: RenderConfig = field(default_factory=RenderConfig)
 
 
 def sim_config_from_dict(raw: Mapping[str, Any], source: str = "<dict>") -> SimConfig:

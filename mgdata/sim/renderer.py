@@ -1,8 +1,13 @@
-"""CameraRig: headless RGB observations from the scene's cameras with one reused ``mujoco.Renderer``.
+"""CameraRig: headless RGB observations from the scene's cameras with one GL context and MuJoCo's classic
+renderer.
 
 CPU rendering (EGL or OSMesa on llvmpipe) is fast only with shadows, reflections and MSAA off and decimated
 visual meshes (the scene builder does both); ``mgdata`` sets ``MUJOCO_GL=egl`` before MuJoCo is imported.
-Always close the rig (or use it as a context manager): an unclosed renderer errors at interpreter exit.
+The rig builds its GL context from a private copy of the model with coarser tessellation of planes, spheres,
+cylinders, boxes and the skybox (:class:`~mgdata.sim.render_config.RenderConfig`) and an offscreen buffer the
+size of its images; fixed cameras far from the robot draw its far level of detail. docs/render.md measures
+what each costs. Always close the rig (or use it as a context manager): an unclosed GL context errors at
+interpreter exit.
 
 Example::
 
@@ -13,15 +18,19 @@ Example::
 from __future__ import annotations
 
 import contextlib
+import copy
 import os
 from collections.abc import Mapping, Sequence
 from types import TracebackType
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from mgdata.errors import SceneError
+from mgdata.sim import robot
 from mgdata.sim.cameras import CAMERA_NAMES
+from mgdata.sim.render_config import RenderConfig
 from mgdata.sim.scene import Scene
 
 
@@ -51,6 +60,43 @@ def contact_sheet(images: Mapping[str, np.ndarray], *, labels: bool = True) -> n
     return np.concatenate(tiles, axis=1)
 
 
+MAX_SIZE = 4096
+"""Largest image side the rig renders (pixels)."""
+
+
+def context_model(model: mujoco.MjModel, size: int, config: RenderConfig) -> mujoco.MjModel:
+    """A copy of ``model`` to build a GL context from: ``config``'s tessellation, a ``size``² offscreen
+    buffer.
+
+    Only what ``mjr_makeContext`` reads differs (plane grid spacing, ``vis.quality``, buffer size), so scenes
+    updated from ``model`` render with it.
+    """
+    ctx = copy.copy(model)
+    ctx.vis.global_.offwidth = ctx.vis.global_.offheight = size
+    ctx.vis.quality.offsamples = 0
+    ctx.vis.quality.numslices = config.numslices
+    ctx.vis.quality.numstacks = config.numstacks
+    ctx.vis.quality.numquads = config.numquads
+    planes = ctx.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
+    ctx.geom_size[planes, 2] = config.plane_grid
+    return ctx
+
+
+def camera_option(model: mujoco.MjModel, camera: int, config: RenderConfig) -> mujoco.MjvOption:
+    """The visualisation options for ``camera``: MuJoCo's defaults, with the robot's far level of detail
+    (``robot.FAR_LOD_GROUP`` instead of ``robot.NEAR_LOD_GROUP``) for a fixed camera at least
+    ``config.far_lod_distance`` from the robot base, if the model has that level (a model built without it
+    keeps the near level everywhere)."""
+    option = mujoco.MjvOption()
+    has_far = bool((model.geom_group == robot.FAR_LOD_GROUP).any())
+    if config.far_lod > 0 and has_far and model.cam_bodyid[camera] == 0:
+        base = model.body(robot.ROOT_BODY).pos  # the base is welded to the world
+        if np.linalg.norm(model.cam_pos[camera] - base) >= config.far_lod_distance:
+            option.geomgroup[robot.NEAR_LOD_GROUP] = 0
+            option.geomgroup[robot.FAR_LOD_GROUP] = 1
+    return option
+
+
 class CameraRig:
     """Renders ``cameras`` of ``scene`` at ``size``×``size`` (default: the task's ``image_size``).
 
@@ -69,30 +115,48 @@ class CameraRig:
             raise SceneError(
                 f"unknown camera(s) {unknown or '(none given)'}; cameras: {', '.join(CAMERA_NAMES)}"
             )
-        if self.size > min(model.vis.global_.offwidth, model.vis.global_.offheight) or self.size < 8:
-            raise SceneError(f"image size {self.size} outside 8…{model.vis.global_.offheight} for this scene")
-        self._ids = [model.camera(c).id for c in self.cameras]
+        if not 8 <= self.size <= MAX_SIZE:
+            raise SceneError(f"image size {self.size} outside 8…{MAX_SIZE}")
+        config = scene.sim.render
         _check_gl_backend()
-        self._renderer: mujoco.Renderer | None = mujoco.Renderer(model, self.size, self.size)
-        flags = self._renderer.scene.flags
-        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
-        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._gl: Any = mujoco.GLContext(self.size, self.size)
+        self._gl.make_current()
+        self._context: mujoco.MjrContext | None = mujoco.MjrContext(
+            context_model(model, self.size, config), mujoco.mjtFontScale.mjFONTSCALE_100)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._ids = [model.camera(c).id for c in self.cameras]
+        self._options = [camera_option(model, cam, config) for cam in self._ids]
+        self._buffer = np.empty((self.size, self.size, 3), dtype=np.uint8)
 
     def render(self) -> dict[str, np.ndarray]:
         """One RGB image (size, size, 3) uint8 per camera, of the scene's current ``data``."""
-        if self._renderer is None:
+        if self._context is None:
             raise SceneError("CameraRig.render() called after close()")
+        self._gl.make_current()
+        model, data = self.scene.model, self.scene.data
         out: dict[str, np.ndarray] = {}
-        for name, cam in zip(self.cameras, self._ids, strict=True):
-            self._renderer.update_scene(self.scene.data, camera=cam)
-            out[name] = self._renderer.render().copy()
+        for name, cam, option in zip(self.cameras, self._ids, self._options, strict=True):
+            self._camera.fixedcamid = cam
+            mujoco.mjv_updateScene(model, data, option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL,
+                                   self._scene)
+            mujoco.mjr_render(self._rect, self._scene, self._context)
+            mujoco.mjr_readPixels(self._buffer, None, self._rect, self._context)
+            out[name] = self._buffer[::-1].copy()  # OpenGL's rows run bottom to top
         return out
 
     def close(self) -> None:
         """Free the GL context (idempotent)."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._context is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._context = None
+            self._gl.free()
 
     def __enter__(self) -> CameraRig:
         return self

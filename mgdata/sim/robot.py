@@ -28,7 +28,9 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   (0.005 s, critically damped) with ``finger_solmix`` (100: the pads' ``solref`` dominates the mix with any
   object's) keeps the penetration under 0.4 mm and the slip under 0.4 mm over a 5 s hold (measured on five
   jar tasks, docs/sim.md; tests/test_jar.py holds it to < 1 mm and ≤ 3 mm);
-* visual meshes replaced by cached 10 % decimations (``meshcache``), collision meshes untouched;
+* visual meshes replaced by cached 10 % decimations (``meshcache``) in geom group ``NEAR_LOD_GROUP``, with
+  optional coarser copies in the hidden group ``FAR_LOD_GROUP`` that far cameras draw instead
+  (``far_lod``; docs/render.md); collision meshes untouched;
 * the base's axis-marker sites are moved to hidden site group 4 so cameras do not see them.
 
 Example::
@@ -74,6 +76,10 @@ GRIPPER_MAX_OPENING = 0.08
 
 VISUAL_DECIMATION = 0.1
 """Fraction of faces kept in the Panda's visual meshes."""
+NEAR_LOD_GROUP = 1
+"""Geom group of the Panda's visual meshes (shown by MuJoCo's default options)."""
+FAR_LOD_GROUP = 5
+"""Geom group of the Panda's far level of detail (hidden by default; far cameras show it instead)."""
 
 _ENV = "MGDATA_PANDA_XML"
 
@@ -168,24 +174,42 @@ def panda_xml_path() -> Path:
     )
 
 
-def _decimate_visuals(spec: mujoco.MjSpec, xml: Path, ratio: float) -> None:
-    """Swap meshes used only by non-colliding geoms for cached decimations (inline vertices/faces)."""
+def _decimate_visuals(spec: mujoco.MjSpec, xml: Path, ratio: float, far_lod: float) -> None:
+    """Swap meshes used only by non-colliding geoms for cached decimations (inline vertices/faces) and move
+    their geoms to ``NEAR_LOD_GROUP``; with ``far_lod`` > 0 give each a massless copy in ``FAR_LOD_GROUP``
+    decimated to ``far_lod``. The links' explicit inertials make visual geoms irrelevant to physics."""
     collision_meshes = {g.meshname for g in spec.geoms if g.meshname and (g.contype or g.conaffinity)}
     visual_meshes = {g.meshname for g in spec.geoms if g.meshname} - collision_meshes
     meshdir = Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
-    for mesh in spec.meshes:
+    far_names: dict[str, str] = {}
+    for mesh in list(spec.meshes):
         if mesh.name not in visual_meshes or not mesh.file:
             continue
-        verts, faces = decimated_mesh(meshdir / mesh.file, ratio)
+        source = meshdir / mesh.file
+        verts, faces = decimated_mesh(source, ratio)
         mesh.file = ""
         mesh.uservert = verts.ravel().tolist()
         mesh.userface = faces.ravel().tolist()
+        if far_lod > 0:
+            verts, faces = decimated_mesh(source, far_lod)
+            far_names[mesh.name] = spec.add_mesh(
+                name=f"{mesh.name}_far", uservert=verts.ravel().tolist(), userface=faces.ravel().tolist(),
+                inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL).name
+    for geom in [g for g in spec.geoms if g.meshname in visual_meshes and not (g.contype or g.conaffinity)]:
+        geom.group = NEAR_LOD_GROUP
+        if geom.meshname in far_names:
+            geom.parent.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=far_names[geom.meshname],
+                                 material=geom.material, rgba=list(geom.rgba), pos=list(geom.pos),
+                                 quat=list(geom.quat), contype=0, conaffinity=0, mass=0.0,
+                                 group=FAR_LOD_GROUP)
 
 
-def load_panda_spec(*, decimate_visuals: bool = True, gripper: GripperConfig | None = None) -> mujoco.MjSpec:
+def load_panda_spec(*, decimate_visuals: bool = True, gripper: GripperConfig | None = None,
+                    far_lod: float = 0.0) -> mujoco.MjSpec:
     """Load the Panda as an ``MjSpec``, gripper and finger pads retuned (root body ``base`` at the origin).
 
-    ``gripper`` defaults to ``recipes/sim.toml`` ``[gripper]``.
+    ``gripper`` defaults to ``recipes/sim.toml`` ``[gripper]``; ``far_lod`` > 0 adds the far level of detail
+    (fraction of the original faces; with ``decimate_visuals`` only).
 
     Raises:
         RobotModelError: the MJCF is missing or does not parse, or lacks an element mgdata relies on.
@@ -220,7 +244,7 @@ def load_panda_spec(*, decimate_visuals: bool = True, gripper: GripperConfig | N
     for site in spec.body(ROOT_BODY).sites:
         site.group = 4
     if decimate_visuals:
-        _decimate_visuals(spec, xml, VISUAL_DECIMATION)
+        _decimate_visuals(spec, xml, VISUAL_DECIMATION, far_lod)
     return spec
 
 

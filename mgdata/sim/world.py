@@ -191,7 +191,7 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
     for name, frac in task.articulation.items():
         if models[name].articulation is None and frac is not None:
             raise SceneError(f"object {name!r} ({models[name].name}) has no articulation to set")
-    spec = robot.load_panda_spec(gripper=sim.gripper)
+    spec = robot.load_panda_spec(gripper=sim.gripper, far_lod=sim.render.far_lod)
     spec.modelname = f"{task.family}_{task.task_id:04d}_{task.condition}"
     liquid = any(m.particles is not None and m.particles.kind == "liquid" for m in models.values())
     sim.physics.configure(spec, liquid=liquid)
