@@ -48,8 +48,13 @@ def spec_from_dict(data: Mapping[str, Any], where: str) -> SafetySpec:
 
 
 def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | None, *, chunks_size: int,
-               data_file_mb: int, video_file_mb: int, video_file_seconds: float) -> dict[str, Any]:
-    """A new dataset's ``info.json`` (no episodes yet)."""
+               data_file_mb: int, video_file_mb: int, video_file_seconds: float,
+               hold_steps: int | None = None, kept_only: bool = False) -> dict[str, Any]:
+    """A new dataset's ``info.json`` (no episodes yet).
+
+    ``hold_steps`` (the gate's success window) and ``kept_only`` (the dataset promises only kept episodes)
+    are what ``mgdata validate`` audits every episode against.
+    """
     features: dict[str, Any] = {c.key: c.feature() for c in layout.frame_columns(schema)}
     for cam in schema.cameras:
         features[layout.video_key(cam)] = {
@@ -66,6 +71,7 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
         "video_path": layout.VIDEO_PATH if schema.cameras else None,
         "features": features,
         "mgdata": {"format": MGDATA_FORMAT, "spec": spec_to_dict(spec) if spec else None,
+                   "hold_steps": hold_steps, "kept_only": kept_only,
                    "video_file_seconds": video_file_seconds, "attempts": None, "sha256": {}},
     }
 
@@ -116,6 +122,17 @@ def schema_from_info(info: Mapping[str, Any], where: str) -> DatasetSchema:
         )
     except (KeyError, TypeError, IndexError) as err:
         raise DatasetError(f"{where}: malformed features ({err})") from err
+
+
+def gate_from_info(info: Mapping[str, Any], where: str) -> tuple[int | None, bool]:
+    """``(hold_steps, kept_only)`` from the ``mgdata`` block (``(None, False)``: the writer got neither)."""
+    mg = info["mgdata"]
+    hold, kept_only = mg.get("hold_steps"), mg.get("kept_only", False)
+    if hold is not None and (not isinstance(hold, int) or isinstance(hold, bool) or hold < 1):
+        raise DatasetError(f"{where}: mgdata.hold_steps is {hold!r}, expected an integer >= 1 or null")
+    if not isinstance(kept_only, bool):
+        raise DatasetError(f"{where}: mgdata.kept_only is {kept_only!r}, expected true or false")
+    return hold, kept_only
 
 
 def video_settings_from_info(info: Mapping[str, Any], where: str) -> VideoSettings:

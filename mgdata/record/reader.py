@@ -26,6 +26,7 @@ from mgdata.record.commit import FileView
 from mgdata.record.episode import EpisodeMeta
 from mgdata.record.episodes import EpisodeRecord, records_from_table
 from mgdata.record.metafiles import (
+    gate_from_info,
     read_info,
     read_tasks,
     schema_from_info,
@@ -83,6 +84,8 @@ class DatasetReader:
 
     Attributes:
         root, info (``info.json`` as a dict), schema, video (settings), tasks (task strings by index).
+        hold_steps: the gate's success window (``None``: not recorded); kept_only: the dataset promises
+        that every episode passed the gate.
     """
 
     def __init__(self, root: Path) -> None:
@@ -94,6 +97,7 @@ class DatasetReader:
         self.info: dict[str, Any] = read_info(info_path)
         self.schema = schema_from_info(self.info, str(info_path))
         self.video = video_settings_from_info(self.info, str(info_path))
+        self.hold_steps, self.kept_only = gate_from_info(self.info, str(info_path))
         total = int(self.info["total_episodes"])
         self.tasks: list[str] = read_tasks(self.files.path(layout.TASKS_PATH)) if total else []
         self._records: list[EpisodeRecord] = []

@@ -120,7 +120,8 @@ def _check_data(reader: DatasetReader, records: list[EpisodeRecord],
     cols = layout.all_columns(reader.schema)
     values: dict[str, list[np.ndarray]] = {c.key: [] for c in cols}
     expected_schema = layout.data_arrow_schema(reader.schema)
-    auditor = SafetyAuditor(reader.schema.propositions, reader.spec)
+    auditor = SafetyAuditor(reader.schema.propositions, reader.spec, hold_steps=reader.hold_steps,
+                            kept_only=reader.kept_only)
     fps = reader.schema.fps
     for ref in sorted({r.data for r in records}):
         path = reader.files.path(layout.data_path(ref))

@@ -85,8 +85,12 @@ class DatasetWriter:
                preset: str | None = None, gop: int = 10, spec: SafetySpec | None = None,
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
-               video_file_seconds: float = layout.VIDEO_FILE_SECONDS) -> DatasetWriter:
-        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``.
+               video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
+               kept_only: bool = False) -> DatasetWriter:
+        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
+        are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
+        held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
+        ``generate`` output, whose negatives go to ``<out>_failed``).
 
         A folder holding only the work area of a ``create`` that was killed before its first commit counts
         as empty.
@@ -101,9 +105,12 @@ class DatasetWriter:
             if tuple(c.id for c in spec.constraints) != schema.constraints:
                 raise DatasetError(f"spec constraints {[c.id for c in spec.constraints]} differ from the "
                                    f"schema's {list(schema.constraints)}")
+        if hold_steps is not None and hold_steps < 1:
+            raise DatasetError(f"hold_steps must be >= 1, got {hold_steps}")
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
-                          video_file_mb=video_file_mb, video_file_seconds=video_file_seconds)
+                          video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
+                          hold_steps=hold_steps, kept_only=kept_only)
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
         try:
