@@ -46,6 +46,8 @@ DFA_STATE = "safety.dfa_state"
 VIOLATED = "safety.violated"
 ENGAGED = "safety.engaged"
 SUCCESS = "safety.success"
+PHYSICS_STATE = "sim.physics_state"
+SCENES_DIR = "meta/scenes"
 INDEX_COLUMNS: tuple[str, ...] = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 
 
@@ -84,13 +86,18 @@ def episodes_path(ref: FileRef) -> str:
     return EPISODES_PATH.format(chunk_index=ref.chunk, file_index=ref.file)
 
 
+def scene_path(task_id: int, sha256: str) -> str:
+    """Where a compiled scene (MJB) is stored: one file per base task, named by task id and content."""
+    return f"{SCENES_DIR}/task_{task_id:06d}_{sha256[:16]}.mjb"
+
+
 @dataclass(frozen=True)
 class Column:
     """One per-frame feature stored in the data parquet.
 
     Attributes:
         key: LeRobot feature key (``"observation.state"``).
-        dtype: LeRobot/numpy dtype name (``"float32"``, ``"int16"``, ``"bool"``, ``"int64"``).
+        dtype: LeRobot/numpy dtype name (``"float32"``, ``"float64"``, ``"int16"``, ``"bool"``, ``"int64"``).
         width: number of values per frame (the feature's shape is ``(width,)``).
         names: per-value names, or ``None``.
     """
@@ -138,6 +145,8 @@ def frame_columns(schema: DatasetSchema) -> tuple[Column, ...]:
         cols.append(Column(VIOLATED, "bool", len(schema.constraints), schema.constraints))
     cols.append(Column(ENGAGED, "bool", 1))
     cols.append(Column(SUCCESS, "bool", 1))
+    if schema.physics_state_size:
+        cols.append(Column(PHYSICS_STATE, "float64", schema.physics_state_size))
     return tuple(cols)
 
 

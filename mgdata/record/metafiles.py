@@ -56,6 +56,10 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
     are what ``mgdata validate`` audits every episode against.
     """
     features: dict[str, Any] = {c.key: c.feature() for c in layout.frame_columns(schema)}
+    if schema.physics_state_size:
+        from mgdata.record.physics import feature_info  # MuJoCo only for datasets that store its state
+
+        features[layout.PHYSICS_STATE]["info"] = feature_info()
     for cam in schema.cameras:
         features[layout.video_key(cam)] = {
             "dtype": "video", "shape": [schema.image_height, schema.image_width, 3],
@@ -119,6 +123,8 @@ def schema_from_info(info: Mapping[str, Any], where: str) -> DatasetSchema:
             propositions=names(layout.LABELS), constraints=names(layout.DFA_STATE),
             robot_type=str(info.get("robot_type")), state_names=names(layout.STATE),
             action_names=names(layout.ACTION),
+            physics_state_size=int(feats[layout.PHYSICS_STATE]["shape"][0]) if layout.PHYSICS_STATE in feats
+            else 0,
         )
     except (KeyError, TypeError, IndexError) as err:
         raise DatasetError(f"{where}: malformed features ({err})") from err
@@ -133,6 +139,21 @@ def gate_from_info(info: Mapping[str, Any], where: str) -> tuple[int | None, boo
     if not isinstance(kept_only, bool):
         raise DatasetError(f"{where}: mgdata.kept_only is {kept_only!r}, expected true or false")
     return hold, kept_only
+
+
+def physics_spec_from_info(info: Mapping[str, Any], where: str) -> int | None:
+    """The MuJoCo state spec (``mjtState`` bits) of ``sim.physics_state`` (``None``: no such feature)."""
+    feat = info["features"].get(layout.PHYSICS_STATE)
+    if feat is None:
+        return None
+    try:
+        spec = feat["info"]["mujoco_state_spec"]
+    except (KeyError, TypeError) as err:
+        raise DatasetError(f"{where}: feature {layout.PHYSICS_STATE!r} lacks info.mujoco_state_spec") from err
+    if not isinstance(spec, int) or isinstance(spec, bool) or spec <= 0:
+        raise DatasetError(f"{where}: {layout.PHYSICS_STATE} info.mujoco_state_spec is {spec!r}, expected a "
+                           "positive integer (mjtState bits)")
+    return spec
 
 
 def video_settings_from_info(info: Mapping[str, Any], where: str) -> VideoSettings:

@@ -27,6 +27,7 @@ from mgdata.record.episode import EpisodeMeta
 from mgdata.record.episodes import EpisodeRecord, records_from_table
 from mgdata.record.metafiles import (
     gate_from_info,
+    physics_spec_from_info,
     read_info,
     read_tasks,
     schema_from_info,
@@ -58,6 +59,7 @@ class EpisodeData:
         violated: bool (T, n_constraints).
         engaged, success: bool (T,). timestamp: float32 (T,) seconds from the episode start.
         frame_index, global_index: int64 (T,).
+        physics_state: float64 (T, n): the MuJoCo state of each frame (``None`` in a dataset without one).
     """
 
     index: int
@@ -73,6 +75,7 @@ class EpisodeData:
     timestamp: np.ndarray
     frame_index: np.ndarray
     global_index: np.ndarray
+    physics_state: np.ndarray | None = None
 
     @property
     def length(self) -> int:
@@ -85,7 +88,8 @@ class DatasetReader:
     Attributes:
         root, info (``info.json`` as a dict), schema, video (settings), tasks (task strings by index).
         hold_steps: the gate's success window (``None``: not recorded); kept_only: the dataset promises
-        that every episode passed the gate.
+        that every episode passed the gate. physics_spec: the ``mjtState`` bits of ``sim.physics_state``
+        (``None``: the dataset stores no physics state).
     """
 
     def __init__(self, root: Path) -> None:
@@ -98,6 +102,7 @@ class DatasetReader:
         self.schema = schema_from_info(self.info, str(info_path))
         self.video = video_settings_from_info(self.info, str(info_path))
         self.hold_steps, self.kept_only = gate_from_info(self.info, str(info_path))
+        self.physics_spec = physics_spec_from_info(self.info, str(info_path))
         total = int(self.info["total_episodes"])
         self.tasks: list[str] = read_tasks(self.files.path(layout.TASKS_PATH)) if total else []
         self._records: list[EpisodeRecord] = []
@@ -181,7 +186,16 @@ class DatasetReader:
             violated=cols.get(layout.VIOLATED, empty_c.astype(bool)), engaged=cols[layout.ENGAGED][:, 0],
             success=cols[layout.SUCCESS][:, 0], timestamp=cols["timestamp"][:, 0],
             frame_index=cols["frame_index"][:, 0], global_index=cols["index"][:, 0],
+            physics_state=cols.get(layout.PHYSICS_STATE),
         )
+
+    def scene_file(self, i: int) -> Path:
+        """The compiled MuJoCo scene (MJB) episode ``i`` ran in (``mujoco.MjModel.from_binary_path``)."""
+        rec = self.record(i)
+        if rec.scene is None:
+            raise DatasetError(f"{self.root}: stores no physics states or scenes (written without a "
+                               "simulator)")
+        return self.files.path(rec.scene)
 
     def video_file(self, i: int, camera: str) -> tuple[Path, int]:
         """(mp4 path, first frame within it) of episode ``i``'s ``camera`` (bare name or video key)."""

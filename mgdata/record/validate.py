@@ -69,6 +69,7 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
     for key in [layout.video_key(c) for c in reader.schema.cameras]:
         _guard(report, lambda key=key: _check_videos(reader, records, key, decode_all, report))
     _guard(report, lambda: _check_stats(reader, records, values, report))
+    _guard(report, lambda: _check_scenes(reader, records, report))
     _guard(report, lambda: _check_unreferenced(reader, records, report))
     _guard(report, lambda: _check_checksums(reader, report))
     return report
@@ -280,11 +281,35 @@ def _close(a: FeatureStats, b: FeatureStats) -> bool:
                for k in STAT_KEYS)
 
 
+def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
+    """Every episode's compiled scene loads in MuJoCo and has the stored physics-state width."""
+    if reader.physics_spec is None:
+        return
+    import mujoco
+
+    width = reader.schema.physics_state_size
+    for rel in sorted({r.scene for r in records if r.scene is not None}):
+        path = reader.files.path(rel)
+        first = next(r.index for r in records if r.scene == rel)
+        try:
+            model = mujoco.MjModel.from_binary_path(str(path))
+        except (ValueError, OSError) as err:
+            report.problems.append(f"{reader.root / rel}: the scene of episode {first} … is not a loadable "
+                                   f"MuJoCo model ({err})")
+            continue
+        size = mujoco.mj_stateSize(model, reader.physics_spec)
+        if size != width:
+            report.problems.append(f"{reader.root / rel}: the scene of episode {first} … has a physics state "
+                                   f"of {size} values, {layout.PHYSICS_STATE} has {width}")
+
+
 def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],
                         report: ValidationReport) -> None:
     used = {layout.data_path(r.data) for r in records} | {layout.episodes_path(r.meta_file) for r in records}
     used |= {layout.video_path(k, span.ref) for r in records for k, span in r.videos.items()}
-    for pattern in ("data/*/*.parquet", layout.EPISODES_DIR + "/*/*.parquet", "videos/*/*/*.mp4"):
+    used |= {r.scene for r in records if r.scene is not None}
+    for pattern in ("data/*/*.parquet", layout.EPISODES_DIR + "/*/*.parquet", "videos/*/*/*.mp4",
+                    layout.SCENES_DIR + "/*"):
         for rel in reader.files.glob(pattern):
             if rel not in used:
                 report.problems.append(f"{reader.root / rel}: not referenced by any episode (LeRobot would "

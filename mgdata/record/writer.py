@@ -3,7 +3,8 @@
 Episodes are appended whole: each is staged (encoded while its frames arrive, see
 :mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
 camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
-rewrites tasks, stats and ``info.json`` — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
+rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, stores its compiled
+scene under ``meta/scenes/``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
 process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
 size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
 
@@ -203,10 +204,16 @@ class DatasetWriter:
 
     # --- EpisodeSink -------------------------------------------------------------------------------------
 
+    def set_scene(self, mjb: bytes) -> None:
+        self._current_stager().set_scene(mjb)
+
     def add_frame(self, frame: Frame) -> None:
+        self._current_stager().add_frame(frame)
+
+    def _current_stager(self) -> EpisodeStager:
         if self._stager is None:
             self._stager = self.stager(work_dir(self.root) / "staging" / "episode")
-        self._stager.add_frame(frame)
+        return self._stager
 
     def end_episode(self, meta: EpisodeMeta) -> None:
         if self._stager is None:
@@ -304,6 +311,13 @@ class DatasetWriter:
             remux(parts, tx.path(layout.video_path(key, ref)), s.fps)
             spans[key] = VideoSpan(ref, offset / s.fps, (offset + length) / s.fps)
 
+        # the compiled scene, once per base task (named by task id and content)
+        scene = None
+        if staged.scene_file is not None:
+            scene = layout.scene_path(staged.meta.task_id, sha256_file(staged.scene_file))
+            if scene not in info["mgdata"]["sha256"]:
+                shutil.copyfile(staged.scene_file, tx.path(scene))
+
         # per-episode and dataset stats
         ep_stats: dict[str, FeatureStats] = {
             key: image_stats(staged.histograms[key], length) if image else numeric_stats(values[key])
@@ -319,7 +333,7 @@ class DatasetWriter:
         if ep_table is not None and ep_table.nbytes > info["data_files_size_in_mb"] * _MB:
             meta_ref, ep_table = meta_ref.next(info["chunks_size"]), None
         record = EpisodeRecord(ep, length, staged.task, data_ref, start, spans, meta_ref, staged.meta,
-                               ep_stats, dict(staged.histograms))
+                               ep_stats, dict(staged.histograms), scene)
         row = record_to_table(record, s)
         ep_table = row if ep_table is None else pa.concat_tables([ep_table, row])
         pq.write_table(ep_table, tx.path(layout.episodes_path(meta_ref)))

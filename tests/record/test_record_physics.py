@@ -1,0 +1,207 @@
+"""Self-contained datasets: the compiled scene and every frame's physics state restore, re-render and
+re-simulate a recorded episode bit for bit, using the example code of ``docs/dataset-format.md``."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import mujoco  # after mgdata (conftest imports it first: it sets MUJOCO_GL)
+import numpy as np
+import pytest
+
+from mgdata.errors import DatasetError
+from mgdata.paths import project_root
+from mgdata.record import layout
+from mgdata.record.commit import sha256_file
+from mgdata.record.episode import MemorySink
+from mgdata.record.physics import STATE_SPEC, model_bytes, physics_state, set_physics_state
+from mgdata.record.reader import DatasetReader
+from mgdata.record.recorder import Recorder, schema_for
+from mgdata.record.staging import EpisodeStager
+from mgdata.record.validate import validate_dataset
+from mgdata.record.writer import DatasetWriter
+from mgdata.sim import robot
+from mgdata.sim.controller import JointController
+from mgdata.sim.renderer import CameraRig
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.tasks.base import base_task
+from mgdata.tasks.recipe import load_recipe
+
+CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
+
+
+def _scene() -> Scene:
+    return build_scene(base_task(load_recipe("jar"), 0))
+
+
+def _actions(k: int) -> list[np.ndarray]:
+    """Episode ``k``: the arm sways away from home and back; the gripper closes half-way."""
+    offset = np.array([0.3, -0.2, 0.2, -0.3, 0.1, 0.3, -0.4]) * (1 if k == 0 else -0.7)
+    return [np.array([*(robot.HOME_Q + offset * np.sin(np.pi * t / STEPS)), float(t >= STEPS // 2)],
+                     dtype=np.float32) for t in range(STEPS)]
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two real recorded episodes of jar task 0 (64² front and wrist cameras)."""
+    root = tmp_path_factory.mktemp("physics") / "ds"
+    scene = _scene()
+    ctl = JointController(scene)
+    with CameraRig(scene, cameras=CAMERAS, size=SIZE) as rig:
+        spec = scene.task.safety
+        with DatasetWriter.create(root, schema_for(scene, spec, rig), spec=spec) as writer:
+            for k in range(2):
+                scene.reset()
+                rec = Recorder(scene, spec, writer, cameras=rig)
+                rec.start()
+                for action in _actions(k):
+                    ctl.apply(action)
+                    ctl.step()
+                    rec.record(action)
+                rec.finish(seed=k, draw_index=k, kept=False)
+    return root
+
+
+def _doc_example() -> dict:
+    """Run the example of ``docs/dataset-format.md`` (the python block after its marker) as written."""
+    text = (project_root() / "docs/dataset-format.md").read_text()
+    code = re.search(r"<!-- example: restore-frame -->\n```python\n(.*?)```", text, re.S)
+    assert code, "the restore-frame example is missing from docs/dataset-format.md"
+    namespace: dict = {}
+    exec(compile(code.group(1), "docs/dataset-format.md", "exec"), namespace)
+    return namespace
+
+
+def _resimulated(actions: np.ndarray, t: int) -> Scene:
+    """The checkout's scene after executing ``actions[:t]`` from the task's initial state (the executor's
+    controller and physics step)."""
+    scene = _scene()
+    scene.reset()
+    ctl = JointController(scene)
+    for action in actions[:t]:
+        ctl.apply(action)
+        ctl.step()
+    return scene
+
+
+def test_every_frame_stores_the_state_its_observation_was_taken_from(recorded: Path) -> None:
+    reader = DatasetReader(recorded)
+    assert reader.physics_spec == STATE_SPEC
+    ep = reader.episode(1)
+    assert ep.physics_state.dtype == np.float64 and ep.physics_state.shape == (STEPS + 1, 78)
+    scene = _scene()
+    scene.reset()
+    ctl = JointController(scene)
+    for t in range(ep.length):
+        assert np.array_equal(physics_state(scene.model, scene.data), ep.physics_state[t]), t
+        measured = np.array([*scene.arm_q(), scene.gripper_opening()], dtype=np.float32)
+        assert np.array_equal(measured, ep.state[t]), t
+        ctl.apply(ep.action[t])
+        ctl.step()
+
+
+def test_stepping_from_frame_t_with_action_t_gives_frame_t_plus_1(recorded: Path) -> None:
+    reader = DatasetReader(recorded)
+    scene = _scene()
+    ctl = JointController(scene)
+    for e in range(reader.num_episodes):
+        ep = reader.episode(e)
+        for t in range(ep.length - 1):
+            set_physics_state(scene.model, scene.data, ep.physics_state[t])
+            ctl.apply(ep.action[t])
+            ctl.step()
+            assert np.array_equal(physics_state(scene.model, scene.data), ep.physics_state[t + 1]), (e, t)
+
+
+def test_the_stored_scene_alone_resimulates_with_plain_mujoco(recorded: Path) -> None:
+    """No mgdata code: the next frame's stored ctrl, ``fps`` and the model's timestep give the step."""
+    reader = DatasetReader(recorded)
+    model = mujoco.MjModel.from_binary_path(str(reader.scene_file(0)))
+    substeps = round(1.0 / reader.schema.fps / model.opt.timestep)
+    ep = reader.episode(0)
+    data, nxt = mujoco.MjData(model), mujoco.MjData(model)
+    for t in range(ep.length - 1):
+        mujoco.mj_setState(model, data, ep.physics_state[t], STATE_SPEC)
+        mujoco.mj_setState(model, nxt, ep.physics_state[t + 1], STATE_SPEC)
+        data.ctrl[:] = nxt.ctrl
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        assert np.array_equal(physics_state(model, data), ep.physics_state[t + 1]), t
+
+
+def test_doc_example_restores_and_renders_frame_t(recorded: Path) -> None:
+    restore_frame = _doc_example()["restore_frame"]
+    reader = DatasetReader(recorded)
+    e, t = 1, 17
+    model, data, rgb = restore_frame(recorded, e, t, camera="front", size=SIZE)
+    ep = reader.episode(e)
+    state = np.empty(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, state, STATE_SPEC)
+    assert np.array_equal(state, ep.physics_state[t])
+    live = _resimulated(ep.action, t)
+    assert model_bytes(live.model) == reader.scene_file(e).read_bytes()
+    for name in ("qpos", "qvel", "xpos", "xquat", "site_xpos", "geom_xpos"):
+        assert np.array_equal(getattr(data, name), getattr(live.data, name)), name
+    with CameraRig(live, cameras=("front",), size=SIZE) as rig:
+        assert np.array_equal(rgb, rig.render()["front"])  # the same pixels mgdata rendered
+    video = reader.frames(e, "front")[t]
+    mse = np.mean((video.astype(np.float64) - rgb.astype(np.float64)) ** 2)
+    assert 10 * np.log10(255.0**2 / mse) > 28  # and what the (lossy) video holds
+
+
+def test_one_scene_file_per_task_referenced_from_the_episodes_table(recorded: Path) -> None:
+    reader = DatasetReader(recorded)
+    scenes = sorted((recorded / layout.SCENES_DIR).iterdir())
+    assert [p.name for p in scenes] == [Path(reader.record(0).scene).name]
+    assert reader.record(1).scene == reader.record(0).scene
+    assert re.fullmatch(r"task_000000_[0-9a-f]{16}\.mjb", scenes[0].name)
+    assert reader.info["mgdata"]["sha256"][reader.record(0).scene] == sha256_file(scenes[0])
+    feature = reader.info["features"][layout.PHYSICS_STATE]
+    assert feature["dtype"] == "float64" and feature["shape"] == [78]
+    assert feature["info"]["mujoco_state_spec"] == STATE_SPEC
+    assert validate_dataset(recorded).ok, validate_dataset(recorded).problems
+
+
+def test_model_bytes_are_identical_across_processes(recorded: Path) -> None:
+    import subprocess
+    import sys
+
+    code = ("import mgdata, sys; from mgdata.record.physics import model_bytes; "
+            "from mgdata.sim.scene import build_scene; from mgdata.tasks.base import base_task; "
+            "from mgdata.tasks.recipe import load_recipe; "
+            "sys.stdout.buffer.write(model_bytes(build_scene(base_task(load_recipe('jar'), 0)).model))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120, check=True).stdout
+    assert out == DatasetReader(recorded).scene_file(0).read_bytes()
+
+
+def test_a_broken_scene_is_reported(recorded: Path, tmp_path: Path) -> None:
+    root = shutil.copytree(recorded, tmp_path / "ds")
+    rel = DatasetReader(root).record(0).scene
+    (root / rel).write_bytes(b"not a model")
+    info = json.loads((root / layout.INFO_PATH).read_text())
+    info["mgdata"]["sha256"][rel] = sha256_file(root / rel)  # a consistent forgery
+    (root / layout.INFO_PATH).write_text(json.dumps(info))
+    (root / layout.SCENES_DIR / "task_000009_0000000000000000.mjb").write_bytes(b"stray")
+    problems = validate_dataset(root).problems
+    assert any(p.startswith(f"{root / rel}: the scene of episode 0 … is not a loadable MuJoCo model")
+               for p in problems), problems
+    assert f"{root}/meta/scenes/task_000009_0000000000000000.mjb: not referenced by any episode (LeRobot " \
+           "would still load data files)" in problems
+
+
+def test_an_episode_with_physics_states_needs_its_scene(tmp_path: Path) -> None:
+    scene = _scene()
+    sink = MemorySink()
+    rec = Recorder(scene, scene.task.safety, sink)
+    rec.start()
+    rec.finish(seed=0, draw_index=0, kept=False)
+    (frames, meta), mjb = sink.episodes[0], sink.scenes[0]
+    assert mjb == model_bytes(scene.model)
+    stager = EpisodeStager(tmp_path / "staged", schema_for(scene, scene.task.safety, None))
+    for frame in frames:
+        stager.add_frame(frame)
+    with pytest.raises(DatasetError, match="needs its compiled scene"):
+        stager.end_episode(meta)  # a sink that lost the scene
