@@ -4,8 +4,8 @@ Columns follow LeRobot v3.0 (``episode_index``, ``tasks``, ``length``, ``data/*`
 ``dataset_to_index``, ``videos/<key>/*``, ``stats/<feature>/<stat>``, ``meta/episodes/*``) plus mgdata's own:
 the :class:`~mgdata.record.episode.EpisodeMeta` fields (``mgdata/<field>``), each camera's exact pixel
 histogram (``mgdata/histogram/<video key>``, 3×256 counts) from which dataset image stats are summed, and,
-in a dataset with physics states, the compiled scene the episode ran in (``mgdata/scene``, a path relative
-to the dataset root, ``meta/scenes/task_….mjb``).
+in a dataset with physics states, the compiled scene the episode ran in (``mgdata/scene``, a scene id of
+``meta/scenes.parquet``, see :mod:`mgdata.record.scenes`).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ class EpisodeRecord:
         index: episode index; ``from_index`` is its first global frame index (``index`` column).
         videos: video key → :class:`VideoSpan`; ``histograms``: video key → (3, 256) pixel counts.
         stats: feature key → its per-episode stats.
-        scene: the compiled scene's path relative to the dataset root (``None``: no physics states).
+        scene: the id of the compiled scene in ``meta/scenes.parquet`` (``None``: no physics states).
     """
 
     index: int
@@ -170,8 +170,6 @@ def _record_from_row(row: dict[str, Any], schema: DatasetSchema, where: str) -> 
 
 
 def _scene_ref(value: Any) -> str:
-    """A stored scene path: a plain file under ``meta/scenes/`` (never outside the dataset)."""
-    if not isinstance(value, str) or not value.startswith(layout.SCENES_DIR + "/") or "/" in \
-            value[len(layout.SCENES_DIR) + 1:] or not value.endswith(".mjb"):
-        raise ValueError(f"{SCENE_COLUMN} is {value!r}, expected {layout.SCENES_DIR}/<name>.mjb")
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{SCENE_COLUMN} is {value!r}, expected a scene id of {layout.SCENES_PATH}")
     return value

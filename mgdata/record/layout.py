@@ -30,6 +30,7 @@ VIDEO_FILE_SECONDS = 60.0
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
+SCENES_PATH = "meta/scenes.parquet"
 EPISODES_DIR = "meta/episodes"
 CHUNK_FILE = "chunk-{chunk_index:03d}/file-{file_index:03d}"
 EPISODES_PATH = EPISODES_DIR + "/" + CHUNK_FILE + ".parquet"
@@ -47,7 +48,6 @@ VIOLATED = "safety.violated"
 ENGAGED = "safety.engaged"
 SUCCESS = "safety.success"
 PHYSICS_STATE = "sim.physics_state"
-SCENES_DIR = "meta/scenes"
 INDEX_COLUMNS: tuple[str, ...] = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 
 
@@ -84,11 +84,6 @@ def video_path(key: str, ref: FileRef) -> str:
 
 def episodes_path(ref: FileRef) -> str:
     return EPISODES_PATH.format(chunk_index=ref.chunk, file_index=ref.file)
-
-
-def scene_path(task_id: int, sha256: str) -> str:
-    """Where a compiled scene (MJB) is stored: one file per base task, named by task id and content."""
-    return f"{SCENES_DIR}/task_{task_id:06d}_{sha256[:16]}.mjb"
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """What makes a dataset self-contained: the compiled MuJoCo scene and the physics state of every frame.
 
-Per base task the dataset stores the compiled model as MJB bytes (``meta/scenes/…``; MuJoCo's own binary
-format, exact and byte-deterministic across processes for the same model and MuJoCo version); per frame it
+Per base task the dataset stores the compiled model as MJB bytes (``meta/scenes.parquet``,
+:mod:`mgdata.record.scenes`; MuJoCo's own binary format, exact and byte-deterministic across processes for
+the same model and MuJoCo version); per frame it
 stores the MuJoCo state (``sim.physics_state``, float64) from which that frame's observation was taken, in
 the state layout :data:`STATE_SPEC`. Frame 0's state is the episode's initial state. With only ``mujoco``
 and ``pyarrow`` anyone can restore any frame, re-render it or re-label it, and re-simulate: setting the state
@@ -33,7 +34,8 @@ def feature_info() -> dict[str, object]:
         "layout": "mujoco.mj_getState(model, data, state, mujoco_state_spec): the mjtState components in "
                   "MuJoCo's order (time, qpos, qvel, act, qacc_warmstart, ctrl, eq_active, mocap_pos, "
                   "mocap_quat, userdata, plugin state, history)",
-        "scene": "the compiled model (MJB) named by the episodes-table column mgdata/scene",
+        "scene": "the compiled model (MJB): meta/scenes.parquet row named by the episodes-table column "
+                 "mgdata/scene",
     }
 
 
@@ -62,6 +64,6 @@ def model_bytes(model: mujoco.MjModel) -> bytes:
     return buf.tobytes()
 
 
-def load_model(path: str) -> mujoco.MjModel:
-    """Load a stored scene (``meta/scenes/….mjb``)."""
-    return mujoco.MjModel.from_binary_path(str(path))
+def model_from_bytes(mjb: bytes) -> mujoco.MjModel:
+    """The model of MJB bytes (as :func:`model_bytes` or :meth:`mgdata.record.scenes.Scenes.mjb` give)."""
+    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb})

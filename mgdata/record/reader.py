@@ -34,6 +34,7 @@ from mgdata.record.metafiles import (
     spec_from_dict,
     video_settings_from_info,
 )
+from mgdata.record.scenes import Scenes
 from mgdata.record.stats import FeatureStats, stats_from_json
 from mgdata.record.video import decode
 from mgdata.spec import SafetySpec
@@ -189,13 +190,18 @@ class DatasetReader:
             physics_state=cols.get(layout.PHYSICS_STATE),
         )
 
-    def scene_file(self, i: int) -> Path:
-        """The compiled MuJoCo scene (MJB) episode ``i`` ran in (``mujoco.MjModel.from_binary_path``)."""
+    def scenes(self) -> Scenes:
+        """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states)."""
+        return Scenes.read(self.files.path(layout.SCENES_PATH))
+
+    def scene_mjb(self, i: int) -> bytes:
+        """The compiled MuJoCo scene (MJB bytes) episode ``i`` ran in
+        (``mgdata.record.physics.model_from_bytes`` loads it)."""
         rec = self.record(i)
         if rec.scene is None:
             raise DatasetError(f"{self.root}: stores no physics states or scenes (written without a "
                                "simulator)")
-        return self.files.path(rec.scene)
+        return self.scenes().mjb(rec.scene)
 
     def video_file(self, i: int, camera: str) -> tuple[Path, int]:
         """(mp4 path, first frame within it) of episode ``i``'s ``camera`` (bare name or video key)."""

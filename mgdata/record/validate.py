@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from mgdata.errors import MgdataError
+from mgdata.errors import DatasetError, MgdataError
 from mgdata.record import layout
 from mgdata.record.audit import SafetyAuditor
 from mgdata.record.commit import sha256_file
@@ -282,34 +282,40 @@ def _close(a: FeatureStats, b: FeatureStats) -> bool:
 
 
 def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
-    """Every episode's compiled scene loads in MuJoCo and has the stored physics-state width."""
+    """Every episode's compiled scene decodes, loads in MuJoCo and has the stored physics-state width; every
+    stored scene is used."""
+    where = reader.root / layout.SCENES_PATH
     if reader.physics_spec is None:
+        if reader.files.path(layout.SCENES_PATH).exists():
+            report.problems.append(f"{where}: scenes in a dataset without {layout.PHYSICS_STATE}")
         return
     import mujoco
 
+    scenes = reader.scenes()
     width = reader.schema.physics_state_size
-    for rel in sorted({r.scene for r in records if r.scene is not None}):
-        path = reader.files.path(rel)
-        first = next(r.index for r in records if r.scene == rel)
+    used = sorted({r.scene for r in records if r.scene is not None})
+    for scene in used:
+        first = next(r.index for r in records if r.scene == scene)
         try:
-            model = mujoco.MjModel.from_binary_path(str(path))
-        except (ValueError, OSError) as err:
-            report.problems.append(f"{reader.root / rel}: the scene of episode {first} … is not a loadable "
-                                   f"MuJoCo model ({err})")
+            model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": scenes.mjb(scene)})
+        except (DatasetError, ValueError) as err:
+            report.problems.append(f"episode {first}: its scene {scene!r} is not a loadable MuJoCo model "
+                                   f"({err})")
             continue
         size = mujoco.mj_stateSize(model, reader.physics_spec)
         if size != width:
-            report.problems.append(f"{reader.root / rel}: the scene of episode {first} … has a physics state "
-                                   f"of {size} values, {layout.PHYSICS_STATE} has {width}")
+            report.problems.append(f"episode {first}: its scene {scene!r} has a physics state of {size} "
+                                   f"values, {layout.PHYSICS_STATE} has {width}")
+    for scene in scenes.ids:
+        if scene not in used:
+            report.problems.append(f"{where}: scene {scene!r} is not used by any episode")
 
 
 def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],
                         report: ValidationReport) -> None:
     used = {layout.data_path(r.data) for r in records} | {layout.episodes_path(r.meta_file) for r in records}
     used |= {layout.video_path(k, span.ref) for r in records for k, span in r.videos.items()}
-    used |= {r.scene for r in records if r.scene is not None}
-    for pattern in ("data/*/*.parquet", layout.EPISODES_DIR + "/*/*.parquet", "videos/*/*/*.mp4",
-                    layout.SCENES_DIR + "/*"):
+    for pattern in ("data/*/*.parquet", layout.EPISODES_DIR + "/*/*.parquet", "videos/*/*/*.mp4"):
         for rel in reader.files.glob(pattern):
             if rel not in used:
                 report.problems.append(f"{reader.root / rel}: not referenced by any episode (LeRobot would "
@@ -326,6 +332,7 @@ def _check_checksums(reader: DatasetReader, report: ValidationReport) -> None:
             report.problems.append(f"{reader.root / rel}: content differs from the SHA-256 recorded in "
                                    f"{layout.INFO_PATH} (corrupted after it was written)")
     if reader.num_episodes:
-        for rel in [layout.STATS_PATH, layout.TASKS_PATH]:
+        scenes = [layout.SCENES_PATH] if reader.physics_spec is not None else []
+        for rel in [layout.STATS_PATH, layout.TASKS_PATH, *scenes]:
             if rel not in recorded:
                 report.problems.append(f"{reader.root / rel}: no checksum recorded in {layout.INFO_PATH}")

@@ -3,8 +3,8 @@
 Episodes are appended whole: each is staged (encoded while its frames arrive, see
 :mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
 camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
-rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, stores its compiled
-scene under ``meta/scenes/``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
+rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
+to ``meta/scenes.parquet``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
 process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
 size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
 
@@ -48,6 +48,7 @@ from mgdata.record.metafiles import (
     write_tasks,
 )
 from mgdata.record.reader import DatasetReader, read_parquet
+from mgdata.record.scenes import Scenes
 from mgdata.record.staging import EpisodeStager, StagedEpisode
 from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
@@ -76,6 +77,7 @@ class DatasetWriter:
         self._values: dict[str, list[np.ndarray]] = {c.key: [] for c in layout.all_columns(self.schema)}
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
+        self._scenes = Scenes([])
         self._stager: EpisodeStager | None = None
         self._stale = False  # a commit failed half-way: memory no longer matches the disk
 
@@ -163,6 +165,7 @@ class DatasetWriter:
         """Rebuild the in-memory state (records, tasks, stats inputs) from the committed files."""
         reader = DatasetReader(self.root)
         self._records, self._tasks = reader.records(), list(reader.tasks)
+        self._scenes = Scenes.read(self.root / layout.SCENES_PATH)
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
@@ -311,12 +314,12 @@ class DatasetWriter:
             remux(parts, tx.path(layout.video_path(key, ref)), s.fps)
             spans[key] = VideoSpan(ref, offset / s.fps, (offset + length) / s.fps)
 
-        # the compiled scene, once per base task (named by task id and content)
-        scene = None
+        # the compiled scene, once per base task
+        scene, scenes = None, self._scenes
         if staged.scene_file is not None:
-            scene = layout.scene_path(staged.meta.task_id, sha256_file(staged.scene_file))
-            if scene not in info["mgdata"]["sha256"]:
-                shutil.copyfile(staged.scene_file, tx.path(scene))
+            scene, scenes = scenes.with_scene(staged.meta.task_id, staged.scene_file.read_bytes())
+            if scenes is not self._scenes:
+                scenes.write(tx.path(layout.SCENES_PATH))
 
         # per-episode and dataset stats
         ep_stats: dict[str, FeatureStats] = {
@@ -347,7 +350,7 @@ class DatasetWriter:
                         splits={"train": f"0:{ep + 1}"})
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
-        return record, tasks, values, staged.histograms, ep_table, new_info
+        return record, tasks, values, staged.histograms, ep_table, new_info, scenes
 
     def _install(self, tx: Transaction, state: tuple) -> None:
         """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.
@@ -364,7 +367,7 @@ class DatasetWriter:
             self._apply(*state)
 
     def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
-               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict) -> None:
+               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: Scenes) -> None:
         self._records.append(record)
         self._tasks = tasks
         for key, v in values.items():
@@ -373,6 +376,7 @@ class DatasetWriter:
             self._hist_sum[key] += h
         self._episodes_table = ep_table
         self._info = info
+        self._scenes = scenes
 
     # --- closing -----------------------------------------------------------------------------------------
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import mujoco  # after mgdata (conftest imports it first: it sets MUJOCO_GL)
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from mgdata.errors import DatasetError
@@ -20,6 +21,7 @@ from mgdata.record.episode import MemorySink
 from mgdata.record.physics import STATE_SPEC, model_bytes, physics_state, set_physics_state
 from mgdata.record.reader import DatasetReader
 from mgdata.record.recorder import Recorder, schema_for
+from mgdata.record.scenes import Scenes
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
@@ -33,8 +35,8 @@ from mgdata.tasks.recipe import load_recipe
 CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
 
 
-def _scene() -> Scene:
-    return build_scene(base_task(load_recipe("jar"), 0))
+def _scene(task_id: int = 0) -> Scene:
+    return build_scene(base_task(load_recipe("jar"), task_id))
 
 
 def _actions(k: int) -> list[np.ndarray]:
@@ -44,24 +46,30 @@ def _actions(k: int) -> list[np.ndarray]:
                      dtype=np.float32) for t in range(STEPS)]
 
 
+TASKS = (0, 1, 0)
+"""The recorded episodes' jar tasks: the second scene is stored as a delta, the third reuses the first."""
+
+
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Two real recorded episodes of jar task 0 (64² front and wrist cameras)."""
+    """Three real recorded episodes of jar tasks 0, 1, 0 (64² front and wrist cameras)."""
     root = tmp_path_factory.mktemp("physics") / "ds"
-    scene = _scene()
-    ctl = JointController(scene)
-    with CameraRig(scene, cameras=CAMERAS, size=SIZE) as rig:
+    writer = None
+    for k, task_id in enumerate(TASKS):
+        scene = _scene(task_id)
+        ctl = JointController(scene)
         spec = scene.task.safety
-        with DatasetWriter.create(root, schema_for(scene, spec, rig), spec=spec) as writer:
-            for k in range(2):
-                scene.reset()
-                rec = Recorder(scene, spec, writer, cameras=rig)
-                rec.start()
-                for action in _actions(k):
-                    ctl.apply(action)
-                    ctl.step()
-                    rec.record(action)
-                rec.finish(seed=k, draw_index=k, kept=False)
+        with CameraRig(scene, cameras=CAMERAS, size=SIZE) as rig:
+            writer = writer or DatasetWriter.create(root, schema_for(scene, spec, rig), spec=spec)
+            scene.reset()
+            rec = Recorder(scene, spec, writer, cameras=rig)
+            rec.start()
+            for action in _actions(k):
+                ctl.apply(action)
+                ctl.step()
+                rec.record(action)
+            rec.finish(seed=k, draw_index=k, kept=False)
+    writer.close()
     return root
 
 
@@ -75,10 +83,10 @@ def _doc_example() -> dict:
     return namespace
 
 
-def _resimulated(actions: np.ndarray, t: int) -> Scene:
+def _resimulated(task_id: int, actions: np.ndarray, t: int) -> Scene:
     """The checkout's scene after executing ``actions[:t]`` from the task's initial state (the executor's
     controller and physics step)."""
-    scene = _scene()
+    scene = _scene(task_id)
     scene.reset()
     ctl = JointController(scene)
     for action in actions[:t]:
@@ -92,7 +100,7 @@ def test_every_frame_stores_the_state_its_observation_was_taken_from(recorded: P
     assert reader.physics_spec == STATE_SPEC
     ep = reader.episode(1)
     assert ep.physics_state.dtype == np.float64 and ep.physics_state.shape == (STEPS + 1, 78)
-    scene = _scene()
+    scene = _scene(ep.meta.task_id)
     scene.reset()
     ctl = JointController(scene)
     for t in range(ep.length):
@@ -105,10 +113,10 @@ def test_every_frame_stores_the_state_its_observation_was_taken_from(recorded: P
 
 def test_stepping_from_frame_t_with_action_t_gives_frame_t_plus_1(recorded: Path) -> None:
     reader = DatasetReader(recorded)
-    scene = _scene()
-    ctl = JointController(scene)
     for e in range(reader.num_episodes):
         ep = reader.episode(e)
+        scene = _scene(ep.meta.task_id)
+        ctl = JointController(scene)
         for t in range(ep.length - 1):
             set_physics_state(scene.model, scene.data, ep.physics_state[t])
             ctl.apply(ep.action[t])
@@ -119,9 +127,9 @@ def test_stepping_from_frame_t_with_action_t_gives_frame_t_plus_1(recorded: Path
 def test_the_stored_scene_alone_resimulates_with_plain_mujoco(recorded: Path) -> None:
     """No mgdata code: the next frame's stored ctrl, ``fps`` and the model's timestep give the step."""
     reader = DatasetReader(recorded)
-    model = mujoco.MjModel.from_binary_path(str(reader.scene_file(0)))
+    model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": reader.scene_mjb(1)})
     substeps = round(1.0 / reader.schema.fps / model.opt.timestep)
-    ep = reader.episode(0)
+    ep = reader.episode(1)
     data, nxt = mujoco.MjData(model), mujoco.MjData(model)
     for t in range(ep.length - 1):
         mujoco.mj_setState(model, data, ep.physics_state[t], STATE_SPEC)
@@ -141,8 +149,8 @@ def test_doc_example_restores_and_renders_frame_t(recorded: Path) -> None:
     state = np.empty(mujoco.mj_stateSize(model, STATE_SPEC))
     mujoco.mj_getState(model, data, state, STATE_SPEC)
     assert np.array_equal(state, ep.physics_state[t])
-    live = _resimulated(ep.action, t)
-    assert model_bytes(live.model) == reader.scene_file(e).read_bytes()
+    live = _resimulated(ep.meta.task_id, ep.action, t)
+    assert model_bytes(live.model) == reader.scene_mjb(e)
     for name in ("qpos", "qvel", "xpos", "xquat", "site_xpos", "geom_xpos"):
         assert np.array_equal(getattr(data, name), getattr(live.data, name)), name
     with CameraRig(live, cameras=("front",), size=SIZE) as rig:
@@ -152,13 +160,18 @@ def test_doc_example_restores_and_renders_frame_t(recorded: Path) -> None:
     assert 10 * np.log10(255.0**2 / mse) > 28  # and what the (lossy) video holds
 
 
-def test_one_scene_file_per_task_referenced_from_the_episodes_table(recorded: Path) -> None:
+def test_one_scene_per_task_delta_coded_and_referenced_from_the_episodes_table(recorded: Path) -> None:
     reader = DatasetReader(recorded)
-    scenes = sorted((recorded / layout.SCENES_DIR).iterdir())
-    assert [p.name for p in scenes] == [Path(reader.record(0).scene).name]
-    assert reader.record(1).scene == reader.record(0).scene
-    assert re.fullmatch(r"task_000000_[0-9a-f]{16}\.mjb", scenes[0].name)
-    assert reader.info["mgdata"]["sha256"][reader.record(0).scene] == sha256_file(scenes[0])
+    ids = [reader.record(e).scene for e in range(3)]
+    assert re.fullmatch(r"task_000000_[0-9a-f]{16}", ids[0]) and ids[1].startswith("task_000001_")
+    assert ids[2] == ids[0]
+    rows = pq.read_table(recorded / layout.SCENES_PATH).to_pylist()
+    assert [(r["scene"], r["base"]) for r in rows] == [(ids[0], None), (ids[1], ids[0])]
+    for e, task_id in enumerate(TASKS):
+        assert reader.scene_mjb(e) == model_bytes(_scene(task_id).model)
+    assert len(rows[1]["data"]) == rows[1]["size"] and rows[0]["size"] > 4_000_000
+    assert (recorded / layout.SCENES_PATH).stat().st_size < 2_000_000 + 100_000  # whole + delta
+    assert reader.info["mgdata"]["sha256"][layout.SCENES_PATH] == sha256_file(recorded / layout.SCENES_PATH)
     feature = reader.info["features"][layout.PHYSICS_STATE]
     assert feature["dtype"] == "float64" and feature["shape"] == [78]
     assert feature["info"]["mujoco_state_spec"] == STATE_SPEC
@@ -174,22 +187,24 @@ def test_model_bytes_are_identical_across_processes(recorded: Path) -> None:
             "from mgdata.tasks.recipe import load_recipe; "
             "sys.stdout.buffer.write(model_bytes(build_scene(base_task(load_recipe('jar'), 0)).model))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120, check=True).stdout
-    assert out == DatasetReader(recorded).scene_file(0).read_bytes()
+    assert out == DatasetReader(recorded).scene_mjb(0)
 
 
 def test_a_broken_scene_is_reported(recorded: Path, tmp_path: Path) -> None:
     root = shutil.copytree(recorded, tmp_path / "ds")
-    rel = DatasetReader(root).record(0).scene
-    (root / rel).write_bytes(b"not a model")
+    path = root / layout.SCENES_PATH
+    rows = pq.read_table(path).to_pylist()
+    rows[1]["data"] = rows[1]["data"][:-1] + b"x"  # one byte of the delta-coded scene
+    rows.append({**rows[1], "scene": "task_000009_0000000000000000"})
+    Scenes(rows).write(path)
     info = json.loads((root / layout.INFO_PATH).read_text())
-    info["mgdata"]["sha256"][rel] = sha256_file(root / rel)  # a consistent forgery
+    info["mgdata"]["sha256"][layout.SCENES_PATH] = sha256_file(path)  # a consistent forgery
     (root / layout.INFO_PATH).write_text(json.dumps(info))
-    (root / layout.SCENES_DIR / "task_000009_0000000000000000.mjb").write_bytes(b"stray")
     problems = validate_dataset(root).problems
-    assert any(p.startswith(f"{root / rel}: the scene of episode 0 … is not a loadable MuJoCo model")
-               for p in problems), problems
-    assert f"{root}/meta/scenes/task_000009_0000000000000000.mjb: not referenced by any episode (LeRobot " \
-           "would still load data files)" in problems
+    assert problems == [
+        f"episode 1: its scene {rows[1]['scene']!r} is not a loadable MuJoCo model ({path}: scene "
+        f"{rows[1]['scene']!r} does not decode to its recorded size and SHA-256)",
+        f"{path}: scene 'task_000009_0000000000000000' is not used by any episode"]
 
 
 def test_an_episode_with_physics_states_needs_its_scene(tmp_path: Path) -> None:
@@ -205,3 +220,25 @@ def test_an_episode_with_physics_states_needs_its_scene(tmp_path: Path) -> None:
         stager.add_frame(frame)
     with pytest.raises(DatasetError, match="needs its compiled scene"):
         stager.end_episode(meta)  # a sink that lost the scene
+
+
+def test_training_views_drop_the_simulator_state_and_v21_keeps_it(recorded: Path, tmp_path: Path) -> None:
+    from mgdata.record.views import export_dataset
+
+    smol = export_dataset(recorded, tmp_path / "smol", "smolvla", overview="front")
+    report = validate_dataset(smol)
+    assert report.ok, report.problems
+    view = DatasetReader(smol)
+    assert view.schema.physics_state_size == 0 and view.physics_spec is None
+    assert not (smol / layout.SCENES_PATH).exists() and view.episode(0).physics_state is None
+    for fmt in ("pi0", "groot"):
+        out = export_dataset(recorded, tmp_path / fmt, fmt, overview="front")
+        info = json.loads((out / "meta/info.json").read_text())
+        assert layout.PHYSICS_STATE not in info["features"] and not (out / layout.SCENES_PATH).exists()
+    v21 = export_dataset(recorded, tmp_path / "v21", "v2.1")
+    src = DatasetReader(recorded)
+    rows = pq.read_table(v21 / "data/chunk-000/episode_000001.parquet")
+    stored = np.stack(rows.column(layout.PHYSICS_STATE).to_pylist())
+    assert np.array_equal(stored, src.episode(1).physics_state)
+    scene = json.loads((v21 / "meta/mgdata_episodes.jsonl").read_text().splitlines()[1])["scene"]
+    assert Scenes.read(v21 / layout.SCENES_PATH).mjb(scene) == src.scene_mjb(1)
