@@ -117,6 +117,10 @@ def bench_physics(work: Path, demos: int) -> None:
     print(f"  scenes (meta/scenes.parquet)  {scenes_file / 1e6:.2f} MB for {len(rows)} tasks, {whole} whole "
           f"+ {len(rows) - whole} XOR deltas (MJB {first / 1e6:.1f} MB per task raw; "
           f"{100 * scenes_file / size:.1f} % of the dataset)")
+    t0 = time.perf_counter()
+    report = validate_dataset(out)
+    print(f"  validate (scenes decoded and loaded) {time.perf_counter() - t0:.2f} s "
+          f"({'ok' if report.ok else report.problems})")
 
 
 def sweep(length: int) -> None:

@@ -242,3 +242,31 @@ def test_training_views_drop_the_simulator_state_and_v21_keeps_it(recorded: Path
     assert np.array_equal(stored, src.episode(1).physics_state)
     scene = json.loads((v21 / "meta/mgdata_episodes.jsonl").read_text().splitlines()[1])["scene"]
     assert Scenes.read(v21 / layout.SCENES_PATH).mjb(scene) == src.scene_mjb(1)
+
+
+def test_an_executor_attempt_replays_bit_identically_from_its_recorded_states() -> None:
+    """The planner executor's own episode (planning, IK and skeleton reads between control steps
+    included): every frame's state, stepped with its action, gives the next frame's state."""
+    from mgdata.engine.executor import Executor
+    from mgdata.grasps.db import GraspDB
+    from mgdata.paths import grasps_dir
+
+    recipe = load_recipe("jar")
+    ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
+    sink = MemorySink()
+    res = ex.run(0, sink, keep_failed=True)
+    ex.close()
+    (frames, _), mjb = sink.episodes[0], sink.scenes[0]
+    assert res.steps > 100 and len(frames) == res.steps + 1
+    model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb})
+    scene = _scene(0)
+    assert model_bytes(scene.model) == mjb
+    ctl = JointController(scene)
+    scene.reset()
+    assert np.array_equal(physics_state(scene.model, scene.data), frames[0].physics_state)
+    for t in range(len(frames) - 1):
+        set_physics_state(scene.model, scene.data, frames[t].physics_state)
+        ctl.apply(frames[t].action)
+        ctl.step()
+        assert np.array_equal(physics_state(scene.model, scene.data), frames[t + 1].physics_state), t
+    assert mujoco.mj_stateSize(model, STATE_SPEC) == len(frames[0].physics_state)
