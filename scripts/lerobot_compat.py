@@ -9,10 +9,10 @@ mgdata's own reader.
 checks shapes, dtypes, decoded frames against the recorded ones (PSNR >= 30 dB), ``delta_timestamps``, a
 ``DataLoader`` epoch, normalisation with ``meta.stats`` through LeRobot's own ``NormalizerProcessorStep``,
 the v2.1 exports through LeRobot's ``convert_dataset_v21_to_v30``; and the generated jar dataset: every
-frame count, the safety columns, the per-frame MuJoCo state ``sim.physics_state`` (float64, bit-identical
-to mgdata's reader, not a policy input feature), frames identical to mgdata's reader, a ``DataLoader``
-epoch, and its smolvla view (which drops the simulator state). Prints one line per check; exit 1 if any
-fails.
+frame count, the safety columns, the per-frame MuJoCo state ``sim.physics_state`` (exact float64 in
+LeRobot's table, float32 tensors in its items, not a policy input feature), frames identical to mgdata's
+reader, a ``DataLoader`` epoch, and its smolvla view (which drops the simulator state). Prints one line per
+check; exit 1 if any fails.
 """
 
 from __future__ import annotations
@@ -204,15 +204,23 @@ def check_jar(work: Path, ok: Checks) -> None:
     truth = np.load(work / "jar_truth.npz")
     starts = ds.meta.episodes["dataset_from_index"]
     worst, compared = float("inf"), 0
+    # LeRobot 0.4.4 hands float64 features out as float32 tensors; its underlying datasets table keeps the
+    # exact float64 values (what restoring a frame needs)
     physics = {key: truth[key] for key in truth.files if key.endswith("/physics")}
     width = info["features"]["sim.physics_state"]["shape"][0]
-    same = [torch.equal(ds[int(starts[int(key.split("/")[0])]) + t]["sim.physics_state"],
-                        torch.from_numpy(state[t])) for key, state in physics.items() for t in (0, 17)]
+    raw = ds.hf_dataset.with_format(None)
+    same = []
+    for key, state in physics.items():
+        for t in (0, 17):
+            i = int(starts[int(key.split("/")[0])]) + t
+            same.append(torch.equal(ds[i]["sim.physics_state"], torch.from_numpy(state[t]).float())
+                        and np.array_equal(np.asarray(raw[i]["sim.physics_state"], np.float64), state[t]))
     policy = dataset_to_policy_features(ds.meta.features)
     state = item["sim.physics_state"]
-    ok("generated jar sim.physics_state", state.dtype == torch.float64 and tuple(state.shape) == (width,)
+    ok("generated jar sim.physics_state", state.dtype == torch.float32 and tuple(state.shape) == (width,)
        and all(same) and "sim.physics_state" not in policy,
-       f"float64 ({width},), bit-identical to mgdata's reader, not among {len(policy)} policy features")
+       f"({width},) as float32 tensors, exact float64 in hf_dataset (== mgdata's reader), not among the "
+       f"{len(policy)} policy features")
     for key in truth.files:
         if key in physics:
             continue

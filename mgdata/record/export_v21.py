@@ -22,8 +22,6 @@ import json
 import math
 from pathlib import Path
 
-import pyarrow.parquet as pq
-
 from mgdata.record import layout
 from mgdata.record.metadata import meta_to_dict
 from mgdata.record.metafiles import dump_json
@@ -66,7 +64,7 @@ def write_v21(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
         rows = rename_table(data.slice(offset, rec.length), view)
         path = out / V21_DATA_PATH.format(episode_chunk=chunk, episode_index=rec.index)
         path.parent.mkdir(parents=True, exist_ok=True)
-        pq.write_table(rows, path)
+        layout.write_data_file(rows, path)
         for cam, new in view.cameras.items():
             src, start = reader.video_file(rec.index, cam)
             dst = out / V21_VIDEO_PATH.format(episode_chunk=chunk, video_key=new, episode_index=rec.index)

@@ -11,9 +11,11 @@ Storage rule (as in LeRobot): a feature of shape ``(1,)`` is a scalar parquet co
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 
 from mgdata.record.episode import DatasetSchema
 
@@ -162,6 +164,20 @@ def all_columns(schema: DatasetSchema) -> tuple[Column, ...]:
 
 def data_arrow_schema(schema: DatasetSchema) -> pa.Schema:
     return pa.schema([pa.field(c.key, c.arrow_type) for c in all_columns(schema)])
+
+
+def write_data_file(table: pa.Table, path: Path) -> None:
+    """Write a data parquet: pyarrow's defaults (dictionary, snappy), except ``sim.physics_state``, which is
+    stored byte-stream-split and zstd-compressed (parquet-native, any reader decodes it): float64 MuJoCo
+    states are noise to a dictionary, and this stores a jar frame's 78 values in ~506 B instead of ~735 B."""
+    leaves = {f.name: f"{f.name}.list.element" if pa.types.is_fixed_size_list(f.type) else f.name
+              for f in table.schema}
+    if PHYSICS_STATE not in leaves:
+        pq.write_table(table, path)
+        return
+    physics = leaves.pop(PHYSICS_STATE)
+    pq.write_table(table, path, use_dictionary=list(leaves.values()), use_byte_stream_split=[physics],
+                   compression={**dict.fromkeys(leaves.values(), "snappy"), physics: "zstd"})
 
 
 def timestamps(length: int, fps: int) -> np.ndarray:

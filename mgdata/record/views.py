@@ -189,7 +189,7 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
 
     for ref in sorted({r.data for r in records}):
         rel = layout.data_path(ref)
-        pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
+        layout.write_data_file(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
     for ref in sorted({r.meta_file for r in records}):
         rel = layout.episodes_path(ref)
         pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view, episodes=True), target(rel))

@@ -292,7 +292,7 @@ class DatasetWriter:
             data_ref = data_ref.next(info["chunks_size"])
         elif last:
             rows = pa.concat_tables([pq.read_table(old_data, schema=rows.schema), rows])
-        pq.write_table(rows, tx.path(layout.data_path(data_ref)))
+        layout.write_data_file(rows, tx.path(layout.data_path(data_ref)))
 
         # videos: copy the staged packets after the current file's
         spans = {}
