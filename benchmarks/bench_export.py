@@ -4,9 +4,13 @@
   recording (encode + histograms, while frames arrive) and commit (the per-episode append);
 - how the per-episode commit grows with the current file sizes (files are rewritten per episode);
 - ``validate`` time for a 40-episode dataset (target <= 30 s), default and ``--decode-all``;
-- ``--sweep``: x264 preset / GOP choices (encode only) with size and PSNR, to justify the defaults.
+- ``--sweep``: x264 preset / GOP choices (encode only) with size and PSNR, to justify the defaults;
+- the storage cost of self-contained datasets (issue 8) on a real ``mgdata generate`` jar dataset
+  (``--jar-demos``, 0 to skip): ``sim.physics_state`` bytes per frame as stored (parquet-compressed) and the
+  compiled scenes (``meta/scenes.parquet``), each as a share of the dataset.
 
-Run: ``.venv/bin/python benchmarks/bench_export.py [--episodes 40 --length 250 --codec h264 --sweep]``
+Run: ``.venv/bin/python benchmarks/bench_export.py [--episodes 40 --length 250 --codec h264 --sweep
+--jar-demos 4]``
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pyarrow.parquet as pq
 
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.validate import validate_dataset
@@ -75,6 +80,49 @@ def bench_validate(root: Path) -> None:
               f"({'ok' if report.ok else f'{len(report.problems)} problems'})")
 
 
+def _column_bytes(root: Path, key: str) -> int:
+    """Stored (compressed) bytes of one feature over every data file."""
+    total = 0
+    for path in root.glob("data/*/*.parquet"):
+        meta = pq.ParquetFile(path).metadata
+        for g in range(meta.num_row_groups):
+            for c in range(meta.num_columns):
+                col = meta.row_group(g).column(c)
+                if col.path_in_schema.split(".list.")[0] == key:
+                    total += col.total_compressed_size
+    return total
+
+
+def bench_physics(work: Path, demos: int) -> None:
+    """The overhead of the physics state and scenes in a real generated jar dataset."""
+    from mgdata.engine.generate import GenerateJob, generate
+    from mgdata.record import layout
+    from mgdata.record.reader import DatasetReader
+    from mgdata.record.scenes import Scenes
+
+    out = work / "jar"
+    summary = generate(GenerateJob(family="jar", n=demos, out=out, tasks=tuple(range(demos)), workers=1))
+    reader = DatasetReader(out)
+    frames, width = reader.num_frames, reader.schema.physics_state_size
+    size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    state = _column_bytes(out, layout.PHYSICS_STATE)
+    scenes_file = (out / layout.SCENES_PATH).stat().st_size
+    rows = Scenes.read(out / layout.SCENES_PATH).rows
+    first = next(len(r["data"]) for r in rows if r["base"] is None)
+    print(f"self-contained jar dataset ({summary.total_kept} kept demos of {len(rows)} tasks, {frames} "
+          f"frames, 5 cameras {reader.schema.image_width}², {size / 1e6:.2f} MB)")
+    print(f"  sim.physics_state             {width} float64 = {8 * width} B raw, {state / frames:.0f} B per "
+          f"frame stored ({100 * state / size:.1f} % of the dataset)")
+    whole = sum(1 for r in rows if r["base"] is None)
+    print(f"  scenes (meta/scenes.parquet)  {scenes_file / 1e6:.2f} MB for {len(rows)} tasks, {whole} whole "
+          f"+ {len(rows) - whole} XOR deltas (MJB {first / 1e6:.1f} MB per task raw; "
+          f"{100 * scenes_file / size:.1f} % of the dataset)")
+    t0 = time.perf_counter()
+    report = validate_dataset(out)
+    print(f"  validate (scenes decoded and loaded) {time.perf_counter() - t0:.2f} s "
+          f"({'ok' if report.ok else report.problems})")
+
+
 def sweep(length: int) -> None:
     schema = synthetic_schema(cameras=("front",))
     ep = synthetic_episode(schema, length, seed=0)
@@ -106,6 +154,8 @@ def main() -> None:
     parser.add_argument("--codec", default="h264", choices=["h264", "av1"])
     parser.add_argument("--sweep", action="store_true")
     parser.add_argument("--core", type=int, default=0, help="CPU core to pin to")
+    parser.add_argument("--jar-demos", type=int, default=4, help="kept jar demos for the self-contained "
+                        "storage figures (0: skip)")
     args = parser.parse_args()
     os.sched_setaffinity(0, {args.core})
     root = Path(tempfile.mkdtemp()) / "bench"
@@ -114,6 +164,8 @@ def main() -> None:
         bench_validate(root)
         if args.sweep:
             sweep(args.length)
+        if args.jar_demos:
+            bench_physics(root.parent, args.jar_demos)
     finally:
         shutil.rmtree(root.parent)
 

@@ -9,8 +9,10 @@ mgdata's own reader.
 checks shapes, dtypes, decoded frames against the recorded ones (PSNR >= 30 dB), ``delta_timestamps``, a
 ``DataLoader`` epoch, normalisation with ``meta.stats`` through LeRobot's own ``NormalizerProcessorStep``,
 the v2.1 exports through LeRobot's ``convert_dataset_v21_to_v30``; and the generated jar dataset: every
-frame count, the safety columns, frames identical to mgdata's reader, a ``DataLoader`` epoch. Prints one line
-per check; exit 1 if any fails.
+frame count, the safety columns, the per-frame MuJoCo state ``sim.physics_state`` (exact float64 in
+LeRobot's table, float32 tensors in its items, not a policy input feature), frames identical to mgdata's
+reader, a ``DataLoader`` epoch, and its smolvla view (which drops the simulator state). Prints one line per
+check; exit 1 if any fails.
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ def generate_jar(out: Path) -> None:
     from mgdata.engine.generate import GenerateJob
     from mgdata.engine.generate import generate as run
     from mgdata.record.reader import DatasetReader
+    from mgdata.record.views import export_dataset
 
     summary = run(GenerateJob(family="jar", n=2, out=out, tasks=(0, 1), workers=1, keep_failed=True))
     if summary.total_kept < 2:
@@ -68,7 +71,9 @@ def generate_jar(out: Path) -> None:
     reader = DatasetReader(out)
     truth = {f"{i}/{cam}": reader.frames(i, cam)[::JAR_TRUTH_EVERY]
              for i in range(reader.num_episodes) for cam in reader.schema.cameras}
+    truth |= {f"{i}/physics": reader.episode(i).physics_state for i in range(reader.num_episodes)}
     np.savez_compressed(out.with_name("jar_truth.npz"), **truth)
+    export_dataset(out, out.with_name("jar_smolvla"), "smolvla")
 
 
 class Checks:
@@ -186,6 +191,7 @@ def check_jar(work: Path, ok: Checks) -> None:
     """The dataset ``mgdata generate`` wrote: loads, safety columns, frames as mgdata decodes them."""
     import torch
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    from lerobot.datasets.utils import dataset_to_policy_features
 
     root = work / "jar"
     info = json.loads((root / "meta/info.json").read_text())
@@ -198,7 +204,26 @@ def check_jar(work: Path, ok: Checks) -> None:
     truth = np.load(work / "jar_truth.npz")
     starts = ds.meta.episodes["dataset_from_index"]
     worst, compared = float("inf"), 0
+    # LeRobot 0.4.4 hands float64 features out as float32 tensors; its underlying datasets table keeps the
+    # exact float64 values (what restoring a frame needs)
+    physics = {key: truth[key] for key in truth.files if key.endswith("/physics")}
+    width = info["features"]["sim.physics_state"]["shape"][0]
+    raw = ds.hf_dataset.with_format(None)
+    same = []
+    for key, state in physics.items():
+        for t in (0, 17):
+            i = int(starts[int(key.split("/")[0])]) + t
+            same.append(torch.equal(ds[i]["sim.physics_state"], torch.from_numpy(state[t]).float())
+                        and np.array_equal(np.asarray(raw[i]["sim.physics_state"], np.float64), state[t]))
+    policy = dataset_to_policy_features(ds.meta.features)
+    state = item["sim.physics_state"]
+    ok("generated jar sim.physics_state", state.dtype == torch.float32 and tuple(state.shape) == (width,)
+       and all(same) and "sim.physics_state" not in policy,
+       f"({width},) as float32 tensors, exact float64 in hf_dataset (== mgdata's reader), not among the "
+       f"{len(policy)} policy features")
     for key in truth.files:
+        if key in physics:
+            continue
         ep, cam = key.split("/")
         for j, expected in enumerate(truth[key]):
             frame = ds[int(starts[int(ep)]) + j * JAR_TRUTH_EVERY][f"observation.images.{cam}"]
@@ -210,6 +235,9 @@ def check_jar(work: Path, ok: Checks) -> None:
     loader = torch.utils.data.DataLoader(ds, batch_size=64, num_workers=2)
     seen = sum(batch["action"].shape[0] for batch in loader)
     ok("generated jar DataLoader epoch", seen == len(ds), f"{seen} samples")
+    view = LeRobotDataset("mgdata/jar-smolvla", root=work / "jar_smolvla", video_backend="pyav")
+    ok("generated jar smolvla view loads without the simulator state", len(view) == len(ds)
+       and "sim.physics_state" not in view[0] and "observation.images.top" in view[0], f"{len(view)} frames")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ from mgdata.motion import (
     load_motion_config,
 )
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, EpisodeSink, Frame
+from mgdata.record.physics import state_size
 from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
@@ -56,6 +57,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.world import Physics
 from mgdata.spec import SafetySpec
+from mgdata.tasks.base import base_task
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
 
@@ -104,6 +106,9 @@ class _TimedSink:
     def __init__(self, sink: EpisodeSink, timings: Timings) -> None:
         self.sink, self.timings = sink, timings
 
+    def set_scene(self, mjb: bytes) -> None:
+        self.sink.set_scene(mjb)
+
     def add_frame(self, frame: Frame) -> None:
         with self.timings.measure("encoding"):
             self.sink.add_frame(frame)
@@ -146,12 +151,14 @@ def control_rate(physics: Physics, motion: MotionConfig) -> int:
 
 
 def dataset_schema(recipe: Recipe) -> DatasetSchema:
-    """The dataset schema every episode of a family's generation run shares."""
+    """The dataset schema every episode of a family's generation run shares (the physics-state width is
+    task 0's: every task of a family has the same MuJoCo state size)."""
     size = recipe.tasks.image_size
     fps = control_rate(load_sim_config().physics, load_motion_config())
     return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
-                         constraints=tuple(c.id for c in recipe.spec.constraints))
+                         constraints=tuple(c.id for c in recipe.spec.constraints),
+                         physics_state_size=state_size(build_scene(base_task(recipe, 0)).model))
 
 
 class Executor:

@@ -118,14 +118,16 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     tasks = _tasks(job, recipe)
     schema = dataset_schema(recipe)
     out = Path(job.out)
-    writer = DatasetWriter.open_or_create(out, schema, codec=job.codec, spec=recipe.spec)
+    writer = DatasetWriter.open_or_create(out, schema, codec=job.codec, spec=recipe.spec,
+                                          hold_steps=recipe.tasks.hold_steps, kept_only=True)
     failed: DatasetWriter | None = None
     summary = RunSummary(out=out, target=job.n, kept_before=writer.num_episodes)
     start = time.perf_counter()
     try:
         neg_root = failed_path(out)
         if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
-            failed = DatasetWriter.open_or_create(neg_root, schema, codec=job.codec, spec=recipe.spec)
+            failed = DatasetWriter.open_or_create(neg_root, schema, codec=job.codec, spec=recipe.spec,
+                                                  hold_steps=recipe.tasks.hold_steps)
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
         state = RunState(job.family, job.seed, inputs_digest(recipe, Path(job.grasps or grasps_dir())))

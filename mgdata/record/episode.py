@@ -23,6 +23,8 @@ class DatasetSchema:
 
     ``cameras`` are bare names (``"front"``); the LeRobot key is ``observation.images.<camera>``.
     ``propositions`` and ``constraints`` give the column order of the safety features.
+    ``physics_state_size`` is the width of the per-frame MuJoCo state (``mgdata.record.physics``; the same
+    for every task of a dataset); 0 for a dataset without simulator state (synthetic data).
     """
 
     fps: int
@@ -34,6 +36,7 @@ class DatasetSchema:
     robot_type: str = "franka_panda"
     state_names: tuple[str, ...] = STATE_NAMES
     action_names: tuple[str, ...] = ACTION_NAMES
+    physics_state_size: int = 0
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,8 @@ class Frame:
         violated: bool (n_constraints,): latched violation flag of each constraint.
         engaged: whether first engagement has happened at or before this step (latched).
         success: whether the family's success predicate holds at this step (not latched).
+        physics_state: float64 (physics_state_size,): the MuJoCo state this step's observation was taken
+            from (``mgdata.record.physics.STATE_SPEC`` layout), or ``None`` without a simulator.
     """
 
     state: np.ndarray
@@ -59,6 +64,7 @@ class Frame:
     violated: np.ndarray
     engaged: bool
     success: bool
+    physics_state: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -94,6 +100,9 @@ class EpisodeMeta:
 class EpisodeSink(Protocol):
     """Where the recorder sends an episode. Nothing is visible in the dataset until ``end_episode``."""
 
+    def set_scene(self, mjb: bytes) -> None:
+        """Attach the compiled MuJoCo model (MJB bytes) the episode in progress runs in."""
+
     def add_frame(self, frame: Frame) -> None:
         """Append one control step to the episode in progress (starting one if none is)."""
 
@@ -105,18 +114,24 @@ class EpisodeSink(Protocol):
 
 
 class MemorySink:
-    """Keeps whole episodes in memory: for tests and short interactive runs."""
+    """Keeps whole episodes (and the scene each ran in) in memory: for tests and short interactive runs."""
 
     def __init__(self) -> None:
         self.episodes: list[tuple[list[Frame], EpisodeMeta]] = []
+        self.scenes: list[bytes | None] = []
         self._frames: list[Frame] = []
+        self._scene: bytes | None = None
+
+    def set_scene(self, mjb: bytes) -> None:
+        self._scene = mjb
 
     def add_frame(self, frame: Frame) -> None:
         self._frames.append(frame)
 
     def end_episode(self, meta: EpisodeMeta) -> None:
         self.episodes.append((self._frames, meta))
-        self._frames = []
+        self.scenes.append(self._scene)
+        self._frames, self._scene = [], None
 
     def discard_episode(self) -> None:
-        self._frames = []
+        self._frames, self._scene = [], None

@@ -2,8 +2,10 @@
 
 Columns follow LeRobot v3.0 (``episode_index``, ``tasks``, ``length``, ``data/*``, ``dataset_from_index``,
 ``dataset_to_index``, ``videos/<key>/*``, ``stats/<feature>/<stat>``, ``meta/episodes/*``) plus mgdata's own:
-the :class:`~mgdata.record.episode.EpisodeMeta` fields (``mgdata/<field>``) and each camera's exact pixel
-histogram (``mgdata/histogram/<video key>``, 3×256 counts) from which dataset image stats are summed.
+the :class:`~mgdata.record.episode.EpisodeMeta` fields (``mgdata/<field>``), each camera's exact pixel
+histogram (``mgdata/histogram/<video key>``, 3×256 counts) from which dataset image stats are summed, and,
+in a dataset with physics states, the compiled scene the episode ran in (``mgdata/scene``, a scene id of
+``meta/scenes.parquet``, see :mod:`mgdata.record.scenes`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from mgdata.record.metadata import meta_fields, meta_from_columns, meta_to_colum
 from mgdata.record.stats import STAT_KEYS, FeatureStats
 
 HISTOGRAM_PREFIX = "mgdata/histogram/"
+SCENE_COLUMN = "mgdata/scene"
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,7 @@ class EpisodeRecord:
         index: episode index; ``from_index`` is its first global frame index (``index`` column).
         videos: video key → :class:`VideoSpan`; ``histograms``: video key → (3, 256) pixel counts.
         stats: feature key → its per-episode stats.
+        scene: the id of the compiled scene in ``meta/scenes.parquet`` (``None``: no physics states).
     """
 
     index: int
@@ -53,6 +57,7 @@ class EpisodeRecord:
     meta: EpisodeMeta
     stats: Mapping[str, FeatureStats]
     histograms: Mapping[str, np.ndarray]
+    scene: str | None = None
 
     @property
     def to_index(self) -> int:
@@ -94,6 +99,8 @@ def table_schema(schema: DatasetSchema) -> pa.Schema:
     fields += list(meta_fields())
     fields += [pa.field(HISTOGRAM_PREFIX + layout.video_key(cam), pa.list_(pa.int64()))
                for cam in schema.cameras]
+    if schema.physics_state_size:
+        fields.append(pa.field(SCENE_COLUMN, pa.string()))
     return pa.schema(fields)
 
 
@@ -116,6 +123,8 @@ def record_to_table(rec: EpisodeRecord, schema: DatasetSchema) -> pa.Table:
     row.update(meta_to_columns(rec.meta))
     for key, hist in rec.histograms.items():
         row[HISTOGRAM_PREFIX + key] = hist.reshape(-1).tolist()
+    if schema.physics_state_size:
+        row[SCENE_COLUMN] = rec.scene
     target = table_schema(schema)
     return pa.Table.from_pylist([row], schema=target)
 
@@ -156,4 +165,11 @@ def _record_from_row(row: dict[str, Any], schema: DatasetSchema, where: str) -> 
         from_index=row["dataset_from_index"], videos=videos,
         meta_file=layout.FileRef(row["meta/episodes/chunk_index"], row["meta/episodes/file_index"]),
         meta=meta_from_columns(row, where), stats=stats, histograms=hists,
+        scene=_scene_ref(row[SCENE_COLUMN]) if schema.physics_state_size else None,
     )
+
+
+def _scene_ref(value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{SCENE_COLUMN} is {value!r}, expected a scene id of {layout.SCENES_PATH}")
+    return value

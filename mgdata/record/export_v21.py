@@ -7,7 +7,8 @@ Layout (as LeRobot 0.3.x wrote it and as openpi and GR00T N1.5 read it)::
     meta/tasks.jsonl               {"task_index", "task"}
     meta/episodes_stats.jsonl      {"episode_index", "stats": {feature: {min, max, mean, std, count, q..}}}
     meta/stats.json                dataset stats (GR00T reads them)
-    meta/mgdata_episodes.jsonl     mgdata's episode metadata (family, seed, verdict, t_violation …)
+    meta/mgdata_episodes.jsonl     mgdata's episode metadata (family, seed, verdict, t_violation …, scene)
+    meta/scenes.parquet            the compiled scenes (``v2.1`` export of a dataset with physics states)
     meta/modality.json             GR00T only
     data/chunk-000/episode_000000.parquet
     videos/chunk-000/<video key>/episode_000000.mp4
@@ -21,15 +22,13 @@ import json
 import math
 from pathlib import Path
 
-import pyarrow.parquet as pq
-
 from mgdata.record import layout
 from mgdata.record.metadata import meta_to_dict
 from mgdata.record.metafiles import dump_json
 from mgdata.record.reader import DatasetReader
 from mgdata.record.stats import stats_to_json
 from mgdata.record.video import remux
-from mgdata.record.views import ViewSpec, rename_stats, rename_table, renamed_features
+from mgdata.record.views import ViewSpec, copy_scenes, rename_stats, rename_table, renamed_features
 
 V21 = "v2.1"
 V21_DATA_PATH = "data/chunk-{episode_chunk:03d}/episode_{episode_index:06d}.parquet"
@@ -65,7 +64,7 @@ def write_v21(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
         rows = rename_table(data.slice(offset, rec.length), view)
         path = out / V21_DATA_PATH.format(episode_chunk=chunk, episode_index=rec.index)
         path.parent.mkdir(parents=True, exist_ok=True)
-        pq.write_table(rows, path)
+        layout.write_data_file(rows, path)
         for cam, new in view.cameras.items():
             src, start = reader.video_file(rec.index, cam)
             dst = out / V21_VIDEO_PATH.format(episode_chunk=chunk, video_key=new, episode_index=rec.index)
@@ -73,13 +72,15 @@ def write_v21(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
             remux([(src, start, rec.length)], dst, fps)
         episodes.append({"episode_index": rec.index, "tasks": [rec.task], "length": rec.length})
         ep_stats.append({"episode_index": rec.index, "stats": rename_stats(stats_to_json(rec.stats), view)})
-        ep_meta.append({"episode_index": rec.index, **meta_to_dict(rec.meta)})
+        scene = {"scene": rec.scene} if view.physics and rec.scene is not None else {}
+        ep_meta.append({"episode_index": rec.index, **meta_to_dict(rec.meta), **scene})
     meta = out / "meta"
     meta.mkdir(parents=True, exist_ok=True)
     _jsonl(meta / "episodes.jsonl", episodes)
     _jsonl(meta / "tasks.jsonl", [{"task_index": i, "task": t} for i, t in enumerate(reader.tasks)])
     _jsonl(meta / "episodes_stats.jsonl", ep_stats)
     _jsonl(meta / "mgdata_episodes.jsonl", ep_meta)
+    copy_scenes(reader, out, view)
     stats = json.loads(reader.files.path(layout.STATS_PATH).read_text())
     (meta / "stats.json").write_text(dump_json(rename_stats(stats, view)))
     n = reader.num_episodes

@@ -48,9 +48,18 @@ def spec_from_dict(data: Mapping[str, Any], where: str) -> SafetySpec:
 
 
 def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | None, *, chunks_size: int,
-               data_file_mb: int, video_file_mb: int, video_file_seconds: float) -> dict[str, Any]:
-    """A new dataset's ``info.json`` (no episodes yet)."""
+               data_file_mb: int, video_file_mb: int, video_file_seconds: float,
+               hold_steps: int | None = None, kept_only: bool = False) -> dict[str, Any]:
+    """A new dataset's ``info.json`` (no episodes yet).
+
+    ``hold_steps`` (the gate's success window) and ``kept_only`` (the dataset promises only kept episodes)
+    are what ``mgdata validate`` audits every episode against.
+    """
     features: dict[str, Any] = {c.key: c.feature() for c in layout.frame_columns(schema)}
+    if schema.physics_state_size:
+        from mgdata.record.physics import feature_info  # MuJoCo only for datasets that store its state
+
+        features[layout.PHYSICS_STATE]["info"] = feature_info()
     for cam in schema.cameras:
         features[layout.video_key(cam)] = {
             "dtype": "video", "shape": [schema.image_height, schema.image_width, 3],
@@ -66,6 +75,7 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
         "video_path": layout.VIDEO_PATH if schema.cameras else None,
         "features": features,
         "mgdata": {"format": MGDATA_FORMAT, "spec": spec_to_dict(spec) if spec else None,
+                   "hold_steps": hold_steps, "kept_only": kept_only,
                    "video_file_seconds": video_file_seconds, "attempts": None, "sha256": {}},
     }
 
@@ -113,9 +123,37 @@ def schema_from_info(info: Mapping[str, Any], where: str) -> DatasetSchema:
             propositions=names(layout.LABELS), constraints=names(layout.DFA_STATE),
             robot_type=str(info.get("robot_type")), state_names=names(layout.STATE),
             action_names=names(layout.ACTION),
+            physics_state_size=int(feats[layout.PHYSICS_STATE]["shape"][0]) if layout.PHYSICS_STATE in feats
+            else 0,
         )
     except (KeyError, TypeError, IndexError) as err:
         raise DatasetError(f"{where}: malformed features ({err})") from err
+
+
+def gate_from_info(info: Mapping[str, Any], where: str) -> tuple[int | None, bool]:
+    """``(hold_steps, kept_only)`` from the ``mgdata`` block (``(None, False)``: the writer got neither)."""
+    mg = info["mgdata"]
+    hold, kept_only = mg.get("hold_steps"), mg.get("kept_only", False)
+    if hold is not None and (not isinstance(hold, int) or isinstance(hold, bool) or hold < 1):
+        raise DatasetError(f"{where}: mgdata.hold_steps is {hold!r}, expected an integer >= 1 or null")
+    if not isinstance(kept_only, bool):
+        raise DatasetError(f"{where}: mgdata.kept_only is {kept_only!r}, expected true or false")
+    return hold, kept_only
+
+
+def physics_spec_from_info(info: Mapping[str, Any], where: str) -> int | None:
+    """The MuJoCo state spec (``mjtState`` bits) of ``sim.physics_state`` (``None``: no such feature)."""
+    feat = info["features"].get(layout.PHYSICS_STATE)
+    if feat is None:
+        return None
+    try:
+        spec = feat["info"]["mujoco_state_spec"]
+    except (KeyError, TypeError) as err:
+        raise DatasetError(f"{where}: feature {layout.PHYSICS_STATE!r} lacks info.mujoco_state_spec") from err
+    if not isinstance(spec, int) or isinstance(spec, bool) or spec <= 0:
+        raise DatasetError(f"{where}: {layout.PHYSICS_STATE} info.mujoco_state_spec is {spec!r}, expected a "
+                           "positive integer (mjtState bits)")
+    return spec
 
 
 def video_settings_from_info(info: Mapping[str, Any], where: str) -> VideoSettings:

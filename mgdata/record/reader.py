@@ -26,12 +26,15 @@ from mgdata.record.commit import FileView
 from mgdata.record.episode import EpisodeMeta
 from mgdata.record.episodes import EpisodeRecord, records_from_table
 from mgdata.record.metafiles import (
+    gate_from_info,
+    physics_spec_from_info,
     read_info,
     read_tasks,
     schema_from_info,
     spec_from_dict,
     video_settings_from_info,
 )
+from mgdata.record.scenes import Scenes
 from mgdata.record.stats import FeatureStats, stats_from_json
 from mgdata.record.video import decode
 from mgdata.spec import SafetySpec
@@ -57,6 +60,7 @@ class EpisodeData:
         violated: bool (T, n_constraints).
         engaged, success: bool (T,). timestamp: float32 (T,) seconds from the episode start.
         frame_index, global_index: int64 (T,).
+        physics_state: float64 (T, n): the MuJoCo state of each frame (``None`` in a dataset without one).
     """
 
     index: int
@@ -72,6 +76,7 @@ class EpisodeData:
     timestamp: np.ndarray
     frame_index: np.ndarray
     global_index: np.ndarray
+    physics_state: np.ndarray | None = None
 
     @property
     def length(self) -> int:
@@ -83,6 +88,9 @@ class DatasetReader:
 
     Attributes:
         root, info (``info.json`` as a dict), schema, video (settings), tasks (task strings by index).
+        hold_steps: the gate's success window (``None``: not recorded); kept_only: the dataset promises
+        that every episode passed the gate. physics_spec: the ``mjtState`` bits of ``sim.physics_state``
+        (``None``: the dataset stores no physics state).
     """
 
     def __init__(self, root: Path) -> None:
@@ -94,6 +102,8 @@ class DatasetReader:
         self.info: dict[str, Any] = read_info(info_path)
         self.schema = schema_from_info(self.info, str(info_path))
         self.video = video_settings_from_info(self.info, str(info_path))
+        self.hold_steps, self.kept_only = gate_from_info(self.info, str(info_path))
+        self.physics_spec = physics_spec_from_info(self.info, str(info_path))
         total = int(self.info["total_episodes"])
         self.tasks: list[str] = read_tasks(self.files.path(layout.TASKS_PATH)) if total else []
         self._records: list[EpisodeRecord] = []
@@ -177,7 +187,21 @@ class DatasetReader:
             violated=cols.get(layout.VIOLATED, empty_c.astype(bool)), engaged=cols[layout.ENGAGED][:, 0],
             success=cols[layout.SUCCESS][:, 0], timestamp=cols["timestamp"][:, 0],
             frame_index=cols["frame_index"][:, 0], global_index=cols["index"][:, 0],
+            physics_state=cols.get(layout.PHYSICS_STATE),
         )
+
+    def scenes(self) -> Scenes:
+        """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states)."""
+        return Scenes.read(self.files.path(layout.SCENES_PATH))
+
+    def scene_mjb(self, i: int) -> bytes:
+        """The compiled MuJoCo scene (MJB bytes) episode ``i`` ran in
+        (``mgdata.record.physics.model_from_bytes`` loads it)."""
+        rec = self.record(i)
+        if rec.scene is None:
+            raise DatasetError(f"{self.root}: stores no physics states or scenes (written without a "
+                               "simulator)")
+        return self.scenes().mjb(rec.scene)
 
     def video_file(self, i: int, camera: str) -> tuple[Path, int]:
         """(mp4 path, first frame within it) of episode ``i``'s ``camera`` (bare name or video key)."""

@@ -11,10 +11,12 @@ Every demonstration source (planner, GELLO, SO-101) drives the robot the same wa
     meta = rec.finish(seed=..., draw_index=..., kept=True)   # or rec.discard()
 
 Frame ``t`` pairs the observation *before* acting with the action taken from it (the LeRobot convention):
-state, images, labels ``L(s_t)``, the monitor after reading ``L(s_0..s_t)``, engagement (latched) and the
-success predicate at ``s_t``. An episode of ``T`` actions has ``T + 1`` frames: the final observation is
-stored with the last action repeated (the robot holds its last command). Frames go to the sink as they are
-made, so memory stays bounded; nothing is visible in the dataset before ``finish``.
+state, images, labels ``L(s_t)``, the monitor after reading ``L(s_0..s_t)``, engagement (latched), the
+success predicate at ``s_t`` and the MuJoCo state ``s_t`` itself (``mgdata.record.physics``), so that
+setting frame ``t``'s physics state and applying its action reproduces frame ``t + 1``. ``start`` also
+hands the sink the compiled scene (MJB). An episode of ``T`` actions has ``T + 1`` frames: the final
+observation is stored with the last action repeated (the robot holds its last command). Frames go to the
+sink as they are made, so memory stays bounded; nothing is visible in the dataset before ``finish``.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import mgdata
 from mgdata.errors import MgdataError
 from mgdata.ltl import Monitor, MonitorState, verdict
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, EpisodeSink, Frame
+from mgdata.record.physics import model_bytes, physics_state, state_size
 from mgdata.sim import robot
 from mgdata.sim.engagement import EngagementTracker
 from mgdata.sim.labelling import Labeller
@@ -44,18 +47,19 @@ def schema_for(scene: Scene, spec: SafetySpec, cameras: CameraRig | None, fps: i
     size = cameras.size if cameras is not None else scene.task.image_size
     return DatasetSchema(fps=fps, cameras=cameras.cameras if cameras is not None else (), image_height=size,
                          image_width=size, propositions=spec.proposition_names,
-                         constraints=tuple(c.id for c in spec.constraints))
+                         constraints=tuple(c.id for c in spec.constraints),
+                         physics_state_size=state_size(scene.model))
 
 
 class _Observation:
     """Everything measured at one state, waiting for the action taken from it."""
 
-    __slots__ = ("engaged", "images", "labels", "monitor", "state", "success")
+    __slots__ = ("engaged", "images", "labels", "monitor", "physics", "state", "success")
 
     def __init__(self, state: np.ndarray, images: Mapping[str, np.ndarray], labels: np.ndarray,
-                 monitor: MonitorState, engaged: bool, success: bool) -> None:
+                 monitor: MonitorState, engaged: bool, success: bool, physics: np.ndarray) -> None:
         self.state, self.images, self.labels = state, images, labels
-        self.monitor, self.engaged, self.success = monitor, engaged, success
+        self.monitor, self.engaged, self.success, self.physics = monitor, engaged, success, physics
 
 
 class Recorder:
@@ -93,6 +97,7 @@ class Recorder:
         self._last_action = None
         self._n_frames = 0
         self._n_observed = 0
+        self.sink.set_scene(model_bytes(self.scene.model))
         self._pending = self._observe()
         return self._pending.monitor
 
@@ -174,6 +179,7 @@ class Recorder:
     def _observe(self) -> _Observation:
         t = self._n_observed
         self._n_observed += 1
+        physics = physics_state(self.scene.model, self.scene.data)
         contacts = Contacts(self.scene)
         labels = self.labeller.labels(contacts)
         state = np.empty(8, dtype=np.float32)
@@ -182,12 +188,13 @@ class Recorder:
         images = self.cameras.render() if self.cameras is not None else {}
         engaged = self.engagement.update(t, contacts)
         success = bool(self.success_fn(self.scene)) if self.success_fn is not None else False
-        return _Observation(state, images, labels, self.monitor.step(labels), engaged, success)
+        return _Observation(state, images, labels, self.monitor.step(labels), engaged, success, physics)
 
     def _emit(self, obs: _Observation, action: np.ndarray) -> None:
         self.sink.add_frame(Frame(state=obs.state, action=np.asarray(action, dtype=np.float32),
                                   images=obs.images, labels=obs.labels, dfa_state=obs.monitor.dfa_state,
-                                  violated=obs.monitor.violated, engaged=obs.engaged, success=obs.success))
+                                  violated=obs.monitor.violated, engaged=obs.engaged, success=obs.success,
+                                  physics_state=obs.physics))
         self._n_frames += 1
 
     def _hold_action(self) -> np.ndarray:

@@ -6,9 +6,10 @@ the main process later appends the staged folders in draw order with
 The single-process writer stages each episode the same way, so both paths write the same bytes.
 
 Folder contents: ``<video key>.mp4`` per camera (frames 0…T-1, starting with a keyframe),
-``frames.parquet`` (the per-frame features), ``episode.json`` (length, task, metadata, pixel histograms,
-the schema and video settings it was made with). The folder appears atomically (rename of
-``<path>.partial``) when the episode ends.
+``frames.parquet`` (the per-frame features), ``scene.mjb`` (the compiled MuJoCo model the episode ran in,
+when the schema has physics states: this is how the scene travels from a worker process to the writer),
+``episode.json`` (length, task, metadata, pixel histograms, the schema and video settings it was made
+with). The folder appears atomically (rename of ``<path>.partial``) when the episode ends.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from mgdata.record.video import VideoEncoder, VideoSettings
 STAGED_FORMAT = 1
 EPISODE_JSON = "episode.json"
 FRAMES_PARQUET = "frames.parquet"
+SCENE_MJB = "scene.mjb"
 
 
 def schema_from_dict(data: dict) -> DatasetSchema:
@@ -64,13 +66,23 @@ class StagedEpisode:
                                f"{STAGED_FORMAT}")
         try:
             hists = {k: np.asarray(v, dtype=np.int64).reshape(3, 256) for k, v in data["histograms"].items()}
-            return cls(path, int(data["length"]), str(data["task"]), meta_from_dict(data["meta"], str(file)),
-                       hists, schema_from_dict(data["schema"]), VideoSettings(**data["video"]))
+            staged = cls(path, int(data["length"]), str(data["task"]),
+                         meta_from_dict(data["meta"], str(file)), hists, schema_from_dict(data["schema"]),
+                         VideoSettings(**data["video"]))
         except (KeyError, TypeError, ValueError) as err:
             raise DatasetError(f"{file}: malformed staged episode ({err})") from err
+        if staged.scene_file is not None and not staged.scene_file.is_file():
+            raise DatasetError(f"{staged.scene_file}: missing (a staged episode with physics states carries "
+                               "its compiled scene)")
+        return staged
 
     def video_file(self, key: str) -> Path:
         return self.path / f"{key}.mp4"
+
+    @property
+    def scene_file(self) -> Path | None:
+        """The compiled scene (MJB) the episode ran in; ``None`` for a schema without physics states."""
+        return self.path / SCENE_MJB if self.schema.physics_state_size else None
 
     def frames_table(self) -> pa.Table:
         file = self.path / FRAMES_PARQUET
@@ -108,8 +120,14 @@ class EpisodeStager:
         self._encoders: dict[str, VideoEncoder] = {}
         self._rows: dict[str, list[np.ndarray]] = {}
         self._hists: dict[str, np.ndarray] = {}
+        self._scene: bytes | None = None
         self._length = 0
         self.done = False
+
+    def set_scene(self, mjb: bytes) -> None:
+        if not self.schema.physics_state_size:
+            raise DatasetError(f"{self.path}: the dataset schema has no physics state, so no scene is stored")
+        self._scene = bytes(mjb)
 
     def add_frame(self, frame: Frame) -> None:
         if self.done:
@@ -130,6 +148,9 @@ class EpisodeStager:
         if self._length == 0:
             raise DatasetError(f"{self.path}: cannot end an episode without frames")
         check_meta(meta, self.schema.constraints)
+        if self.schema.physics_state_size and self._scene is None:
+            raise DatasetError(f"{self.path}: an episode with physics states needs its compiled scene "
+                               "(set_scene before end_episode)")
         if self.path.exists():
             raise DatasetError(f"{self.path}: a staged episode already exists there")
         for enc in self._encoders.values():
@@ -137,6 +158,8 @@ class EpisodeStager:
         arrays = [col.to_arrow(np.stack(self._rows[col.key])) for col in self._columns]
         table = pa.Table.from_arrays(arrays, names=[c.key for c in self._columns])
         pq.write_table(table, self._partial / FRAMES_PARQUET)
+        if self._scene is not None:
+            (self._partial / SCENE_MJB).write_bytes(self._scene)
         doc = {
             "format": STAGED_FORMAT, "length": self._length, "task": meta.prompt, "meta": meta_to_dict(meta),
             "histograms": {k: h.tolist() for k, h in self._hists.items()},
@@ -167,21 +190,25 @@ class EpisodeStager:
         self._rows = {c.key: [] for c in self._columns}
 
     def _reset(self) -> None:
-        self._encoders, self._rows, self._hists, self._length = {}, {}, {}, 0
+        self._encoders, self._rows, self._hists, self._length, self._scene = {}, {}, {}, 0, None
 
     def _check(self, frame: Frame) -> dict[str, np.ndarray]:
         """The frame's numeric values by feature key, validated against the schema."""
         s = self.schema
         raw = {layout.STATE: frame.state, layout.ACTION: frame.action, layout.LABELS: frame.labels,
                layout.DFA_STATE: frame.dfa_state, layout.VIOLATED: frame.violated,
-               layout.ENGAGED: np.asarray([frame.engaged]), layout.SUCCESS: np.asarray([frame.success])}
+               layout.ENGAGED: np.asarray([frame.engaged]), layout.SUCCESS: np.asarray([frame.success]),
+               layout.PHYSICS_STATE: frame.physics_state}
         out = {}
         for col in self._columns:
+            if raw[col.key] is None:
+                raise DatasetError(f"frame {self._length}: no {col.key} (the dataset schema has "
+                                   f"{col.width} values per frame)")
             value = np.asarray(raw[col.key])
             where = f"frame {self._length}: {col.key}"
             if value.shape != (col.width,):
                 raise DatasetError(f"{where} has shape {value.shape}, expected ({col.width},)")
-            if col.dtype == "float32" and not np.all(np.isfinite(value)):
+            if col.dtype.startswith("float") and not np.all(np.isfinite(value)):
                 raise DatasetError(f"{where} has non-finite values {value.tolist()}")
             if col.dtype == "int16" and (value.min() < -(2**15) or value.max() >= 2**15):
                 raise DatasetError(f"{where} values {value.tolist()} do not fit int16")

@@ -82,7 +82,8 @@ class SyntheticEpisode:
 def synthetic_episode(schema: DatasetSchema, length: int, seed: int, *, draw_index: int = 0,
                       family: str = "jar", violate_at: int | None = None, kept: bool | None = None,
                       prompt: str | None = None) -> SyntheticEpisode:
-    """A deterministic episode; ``violate_at`` drops the jar at that step (an unsafe episode)."""
+    """A deterministic episode; ``violate_at`` drops the jar at that step (an unsafe episode). It is kept
+    (``kept=None``) iff it never violates; its goal holds on its last 10 frames."""
     rng = np.random.default_rng(seed)
     t = np.arange(length, dtype=np.float64)[:, None]
     phase = rng.uniform(0, 2 * np.pi, 8)
@@ -104,13 +105,14 @@ def synthetic_episode(schema: DatasetSchema, length: int, seed: int, *, draw_ind
     t_violation = dict(zip(schema.constraints, first, strict=True))
     t_first = min((f for f in first if f is not None), default=None)
     nu = verdict(t_first, engage_at)
+    kept = t_first is None if kept is None else kept  # the gate keeps only episodes that never violate
     meta = EpisodeMeta(
         family=family, task_id=seed % 7, condition="base" if seed % 3 else "ood_lighting",
         prompt=prompt or f"close the jar and carry it to the goal (task {seed % 7})",
         spec_name=SYNTHETIC_SPEC.name, formulas={c.id: c.formula for c in SYNTHETIC_SPEC.constraints},
-        seed=seed, draw_index=draw_index, success=True, verdict=nu, kept=nu if kept is None else kept,
+        seed=seed, draw_index=draw_index, success=True, verdict=nu, kept=kept,
         t_engage=engage_at, t_violation=t_violation,
-        failure_stage=None if nu else "transport", failure_reason=None if nu else "jar dropped",
+        failure_stage=None if kept else "unsafe", failure_reason=None if kept else "jar dropped",
         grasp_id=f"jar/jar_{seed % 3}/g{seed % 5}",
         variation={"standoff_m": round(0.08 + seed % 5 * 0.01, 3)},
         source="synthetic", software_version="0.1.0",

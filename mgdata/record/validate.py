@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from mgdata.errors import MgdataError
+from mgdata.errors import DatasetError, MgdataError
 from mgdata.record import layout
 from mgdata.record.audit import SafetyAuditor
 from mgdata.record.commit import sha256_file
@@ -69,6 +69,7 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
     for key in [layout.video_key(c) for c in reader.schema.cameras]:
         _guard(report, lambda key=key: _check_videos(reader, records, key, decode_all, report))
     _guard(report, lambda: _check_stats(reader, records, values, report))
+    _guard(report, lambda: _check_scenes(reader, records, report))
     _guard(report, lambda: _check_unreferenced(reader, records, report))
     _guard(report, lambda: _check_checksums(reader, report))
     return report
@@ -120,7 +121,8 @@ def _check_data(reader: DatasetReader, records: list[EpisodeRecord],
     cols = layout.all_columns(reader.schema)
     values: dict[str, list[np.ndarray]] = {c.key: [] for c in cols}
     expected_schema = layout.data_arrow_schema(reader.schema)
-    auditor = SafetyAuditor(reader.schema.propositions, reader.spec)
+    auditor = SafetyAuditor(reader.schema.propositions, reader.spec, hold_steps=reader.hold_steps,
+                            kept_only=reader.kept_only)
     fps = reader.schema.fps
     for ref in sorted({r.data for r in records}):
         path = reader.files.path(layout.data_path(ref))
@@ -279,6 +281,36 @@ def _close(a: FeatureStats, b: FeatureStats) -> bool:
                for k in STAT_KEYS)
 
 
+def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
+    """Every episode's compiled scene decodes, loads in MuJoCo and has the stored physics-state width; every
+    stored scene is used."""
+    where = reader.root / layout.SCENES_PATH
+    if reader.physics_spec is None:
+        if reader.files.path(layout.SCENES_PATH).exists():
+            report.problems.append(f"{where}: scenes in a dataset without {layout.PHYSICS_STATE}")
+        return
+    import mujoco
+
+    scenes = reader.scenes()
+    width = reader.schema.physics_state_size
+    used = sorted({r.scene for r in records if r.scene is not None})
+    for scene in used:
+        first = next(r.index for r in records if r.scene == scene)
+        try:
+            model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": scenes.mjb(scene)})
+        except (DatasetError, ValueError) as err:
+            report.problems.append(f"episode {first}: its scene {scene!r} is not a loadable MuJoCo model "
+                                   f"({err})")
+            continue
+        size = mujoco.mj_stateSize(model, reader.physics_spec)
+        if size != width:
+            report.problems.append(f"episode {first}: its scene {scene!r} has a physics state of {size} "
+                                   f"values, {layout.PHYSICS_STATE} has {width}")
+    for scene in scenes.ids:
+        if scene not in used:
+            report.problems.append(f"{where}: scene {scene!r} is not used by any episode")
+
+
 def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],
                         report: ValidationReport) -> None:
     used = {layout.data_path(r.data) for r in records} | {layout.episodes_path(r.meta_file) for r in records}
@@ -300,6 +332,7 @@ def _check_checksums(reader: DatasetReader, report: ValidationReport) -> None:
             report.problems.append(f"{reader.root / rel}: content differs from the SHA-256 recorded in "
                                    f"{layout.INFO_PATH} (corrupted after it was written)")
     if reader.num_episodes:
-        for rel in [layout.STATS_PATH, layout.TASKS_PATH]:
+        scenes = [layout.SCENES_PATH] if reader.physics_spec is not None else []
+        for rel in [layout.STATS_PATH, layout.TASKS_PATH, *scenes]:
             if rel not in recorded:
                 report.problems.append(f"{reader.root / rel}: no checksum recorded in {layout.INFO_PATH}")

@@ -11,7 +11,10 @@ copied, never re-encoded, so frames are bit-identical to the source:
   action split into ``single_arm`` (0:7) and ``gripper`` (7:8), the task from ``task_index``.
 - ``v2.1``: the whole dataset in the LeRobot v2.1 layout, for readers pinned to it.
 
-Safety columns and episode metadata travel with every view.
+Safety columns and episode metadata travel with every view. The simulator state (``sim.physics_state``
+and the compiled scenes, ``meta/scenes.parquet``) travels with ``v2.1`` only: the training views drop it,
+since their loaders take every non-video feature as a model input or expect a fixed key set, and a policy
+must not see simulator state.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,7 +33,7 @@ from mgdata.errors import DatasetError
 from mgdata.record import layout
 from mgdata.record.commit import sha256_file
 from mgdata.record.episode import DatasetSchema
-from mgdata.record.episodes import HISTOGRAM_PREFIX
+from mgdata.record.episodes import HISTOGRAM_PREFIX, SCENE_COLUMN
 from mgdata.record.metafiles import dump_json
 from mgdata.record.reader import DatasetReader, read_parquet
 
@@ -45,17 +49,21 @@ class ViewSpec:
         cameras: source camera → output video key, in output order (unlisted cameras are dropped).
         renames: source feature key → output key for non-video features (others keep their key).
         modality: write GR00T's ``meta/modality.json``.
+        physics: keep ``sim.physics_state`` and the compiled scenes.
     """
 
     version: str
     cameras: dict[str, str]
     renames: dict[str, str] = field(default_factory=dict)
     modality: bool = False
+    physics: bool = False
 
     def key(self, source: str) -> str | None:
         """The output key of a source feature key, ``None`` if the view drops it."""
         if source.startswith(layout.IMAGE_PREFIX):
             return self.cameras.get(layout.camera_name(source))
+        if source == layout.PHYSICS_STATE and not self.physics:
+            return None
         return self.renames.get(source, source)
 
 
@@ -93,7 +101,8 @@ def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wr
     if unknown:
         raise DatasetError(f"--cameras {unknown} are not cameras of this dataset "
                            f"({', '.join(schema.cameras)})")
-    return ViewSpec("v2.1", {c: layout.video_key(c) for c in chosen}, modality=fmt == "groot")
+    return ViewSpec("v2.1", {c: layout.video_key(c) for c in chosen}, modality=fmt == "groot",
+                    physics=fmt == "v2.1")
 
 
 def export_dataset(root: Path, out: Path, fmt: str, *, overview: str | None = None, wrist: str | None = None,
@@ -127,7 +136,7 @@ def renamed_features(reader: DatasetReader, view: ViewSpec) -> dict:
     feats = reader.info["features"]
     out: dict = {}
     for key, ft in feats.items():
-        if ft["dtype"] != "video" and key not in layout.INDEX_COLUMNS:
+        if ft["dtype"] != "video" and key not in layout.INDEX_COLUMNS and view.key(key) is not None:
             out[view.key(key)] = ft
     for cam, new in view.cameras.items():
         out[new] = feats[layout.video_key(cam)]
@@ -140,7 +149,9 @@ def rename_stats(stats: dict, view: ViewSpec) -> dict:
 
 
 def _rename_column(name: str, view: ViewSpec) -> str | None:
-    """Episodes-table column under the view (``videos/<k>/…``, ``stats/<k>/…``, histograms)."""
+    """Episodes-table column under the view (``videos/<k>/…``, ``stats/<k>/…``, histograms, scene)."""
+    if name == SCENE_COLUMN:
+        return name if view.physics else None
     for prefix in ("videos/", "stats/", HISTOGRAM_PREFIX):
         if name.startswith(prefix):
             key, _, rest = name[len(prefix):].partition("/")
@@ -153,6 +164,16 @@ def rename_table(table: pa.Table, view: ViewSpec, episodes: bool = False) -> pa.
     names = [(_rename_column(n, view) if episodes else view.key(n)) for n in table.column_names]
     keep = [i for i, n in enumerate(names) if n is not None]
     return pa.Table.from_arrays([table.column(i) for i in keep], names=[names[i] for i in keep])
+
+
+def copy_scenes(reader: DatasetReader, out: Path, view: ViewSpec,
+                target: Callable[[str], Path] | None = None) -> None:
+    """Copy ``meta/scenes.parquet`` if the view keeps the physics state and the dataset has one."""
+    src = reader.files.path(layout.SCENES_PATH)
+    if view.physics and src.exists():
+        dst = target(layout.SCENES_PATH) if target else out / layout.SCENES_PATH
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(src, dst)
 
 
 def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
@@ -168,7 +189,7 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
 
     for ref in sorted({r.data for r in records}):
         rel = layout.data_path(ref)
-        pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
+        layout.write_data_file(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
     for ref in sorted({r.meta_file for r in records}):
         rel = layout.episodes_path(ref)
         pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view, episodes=True), target(rel))
@@ -176,6 +197,7 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
         for ref in sorted({r.videos[layout.video_key(cam)].ref for r in records}):
             src = reader.files.path(layout.video_path(layout.video_key(cam), ref))
             shutil.copyfile(src, target(layout.video_path(new, ref)))
+    copy_scenes(reader, out, view, target)
     shutil.copyfile(reader.files.path(layout.TASKS_PATH), target(layout.TASKS_PATH))
     stats = json.loads(reader.files.path(layout.STATS_PATH).read_text())
     target(layout.STATS_PATH).write_text(dump_json(rename_stats(stats, view)))

@@ -3,7 +3,8 @@
 Episodes are appended whole: each is staged (encoded while its frames arrive, see
 :mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
 camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
-rewrites tasks, stats and ``info.json`` — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
+rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
+to ``meta/scenes.parquet``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
 process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
 size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
 
@@ -47,6 +48,7 @@ from mgdata.record.metafiles import (
     write_tasks,
 )
 from mgdata.record.reader import DatasetReader, read_parquet
+from mgdata.record.scenes import Scenes
 from mgdata.record.staging import EpisodeStager, StagedEpisode
 from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
@@ -75,6 +77,7 @@ class DatasetWriter:
         self._values: dict[str, list[np.ndarray]] = {c.key: [] for c in layout.all_columns(self.schema)}
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
+        self._scenes = Scenes([])
         self._stager: EpisodeStager | None = None
         self._stale = False  # a commit failed half-way: memory no longer matches the disk
 
@@ -85,8 +88,12 @@ class DatasetWriter:
                preset: str | None = None, gop: int = 10, spec: SafetySpec | None = None,
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
-               video_file_seconds: float = layout.VIDEO_FILE_SECONDS) -> DatasetWriter:
-        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``.
+               video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
+               kept_only: bool = False) -> DatasetWriter:
+        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
+        are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
+        held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
+        ``generate`` output, whose negatives go to ``<out>_failed``).
 
         A folder holding only the work area of a ``create`` that was killed before its first commit counts
         as empty.
@@ -101,9 +108,12 @@ class DatasetWriter:
             if tuple(c.id for c in spec.constraints) != schema.constraints:
                 raise DatasetError(f"spec constraints {[c.id for c in spec.constraints]} differ from the "
                                    f"schema's {list(schema.constraints)}")
+        if hold_steps is not None and hold_steps < 1:
+            raise DatasetError(f"hold_steps must be >= 1, got {hold_steps}")
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
-                          video_file_mb=video_file_mb, video_file_seconds=video_file_seconds)
+                          video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
+                          hold_steps=hold_steps, kept_only=kept_only)
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
         try:
@@ -155,6 +165,7 @@ class DatasetWriter:
         """Rebuild the in-memory state (records, tasks, stats inputs) from the committed files."""
         reader = DatasetReader(self.root)
         self._records, self._tasks = reader.records(), list(reader.tasks)
+        self._scenes = Scenes.read(self.root / layout.SCENES_PATH)
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
@@ -196,10 +207,16 @@ class DatasetWriter:
 
     # --- EpisodeSink -------------------------------------------------------------------------------------
 
+    def set_scene(self, mjb: bytes) -> None:
+        self._current_stager().set_scene(mjb)
+
     def add_frame(self, frame: Frame) -> None:
+        self._current_stager().add_frame(frame)
+
+    def _current_stager(self) -> EpisodeStager:
         if self._stager is None:
             self._stager = self.stager(work_dir(self.root) / "staging" / "episode")
-        self._stager.add_frame(frame)
+        return self._stager
 
     def end_episode(self, meta: EpisodeMeta) -> None:
         if self._stager is None:
@@ -275,7 +292,7 @@ class DatasetWriter:
             data_ref = data_ref.next(info["chunks_size"])
         elif last:
             rows = pa.concat_tables([pq.read_table(old_data, schema=rows.schema), rows])
-        pq.write_table(rows, tx.path(layout.data_path(data_ref)))
+        layout.write_data_file(rows, tx.path(layout.data_path(data_ref)))
 
         # videos: copy the staged packets after the current file's
         spans = {}
@@ -297,6 +314,13 @@ class DatasetWriter:
             remux(parts, tx.path(layout.video_path(key, ref)), s.fps)
             spans[key] = VideoSpan(ref, offset / s.fps, (offset + length) / s.fps)
 
+        # the compiled scene, once per base task
+        scene, scenes = None, self._scenes
+        if staged.scene_file is not None:
+            scene, scenes = scenes.with_scene(staged.meta.task_id, staged.scene_file.read_bytes())
+            if scenes is not self._scenes:
+                scenes.write(tx.path(layout.SCENES_PATH))
+
         # per-episode and dataset stats
         ep_stats: dict[str, FeatureStats] = {
             key: image_stats(staged.histograms[key], length) if image else numeric_stats(values[key])
@@ -312,7 +336,7 @@ class DatasetWriter:
         if ep_table is not None and ep_table.nbytes > info["data_files_size_in_mb"] * _MB:
             meta_ref, ep_table = meta_ref.next(info["chunks_size"]), None
         record = EpisodeRecord(ep, length, staged.task, data_ref, start, spans, meta_ref, staged.meta,
-                               ep_stats, dict(staged.histograms))
+                               ep_stats, dict(staged.histograms), scene)
         row = record_to_table(record, s)
         ep_table = row if ep_table is None else pa.concat_tables([ep_table, row])
         pq.write_table(ep_table, tx.path(layout.episodes_path(meta_ref)))
@@ -326,7 +350,7 @@ class DatasetWriter:
                         splits={"train": f"0:{ep + 1}"})
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
-        return record, tasks, values, staged.histograms, ep_table, new_info
+        return record, tasks, values, staged.histograms, ep_table, new_info, scenes
 
     def _install(self, tx: Transaction, state: tuple) -> None:
         """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.
@@ -343,7 +367,7 @@ class DatasetWriter:
             self._apply(*state)
 
     def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
-               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict) -> None:
+               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: Scenes) -> None:
         self._records.append(record)
         self._tasks = tasks
         for key, v in values.items():
@@ -352,6 +376,7 @@ class DatasetWriter:
             self._hist_sum[key] += h
         self._episodes_table = ep_table
         self._info = info
+        self._scenes = scenes
 
     # --- closing -----------------------------------------------------------------------------------------
 

@@ -15,6 +15,8 @@ from mgdata.record.writer import DatasetWriter
 
 SMALL = synthetic_schema(cameras=("front", "wrist", "left"), size=64)
 LENGTHS = (23, 31, 17, 40)
+GENERATED = {"hold_steps": 10, "kept_only": True}
+"""What ``mgdata generate`` promises about its output dataset (``DatasetWriter.create`` arguments)."""
 
 
 def small_episodes(lengths: tuple[int, ...] = LENGTHS, schema=SMALL) -> list[SyntheticEpisode]:
@@ -48,8 +50,9 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.fixture(scope="session")
 def small_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 4-episode, 3-camera 64² dataset (read-only: copy it before changing anything)."""
-    return write_dataset(tmp_path_factory.mktemp("small") / "ds", small_episodes())
+    """A 4-episode, 3-camera 64² dataset of kept episodes, as ``generate`` writes (read-only: copy it
+    before changing anything)."""
+    return write_dataset(tmp_path_factory.mktemp("small") / "ds", small_episodes(), **GENERATED)
 
 
 @pytest.fixture

@@ -47,6 +47,7 @@ if mode.startswith("die-after-commit-point"):
         os.kill(os.getpid(), signal.SIGKILL)
     commit.Transaction.commit = commit_then_die
 writer = DatasetWriter.open_or_create(root, schema, spec=SYNTHETIC_SPEC)
+print("opened", flush=True)
 start = writer.num_episodes
 for k in range(start, start + 1000):
     ep = synthetic_episode(schema, 20 + k % 7, seed=k, draw_index=k)
@@ -85,7 +86,7 @@ def test_kill_mid_episode_then_validate_and_resume(tmp_path: Path) -> None:
         lines.append(line)
     child.send_signal(signal.SIGKILL)
     assert child.wait(30) == -signal.SIGKILL
-    assert lines == ["committed 0", "committed 1", "mid-episode"]
+    assert lines == ["opened", "committed 0", "committed 1", "mid-episode"]
 
     report = validate_dataset(root)
     assert report.ok, report.problems
@@ -106,7 +107,8 @@ def test_kill_between_commit_point_and_install(tmp_path: Path, mode: str) -> Non
     child = _child(root, mode)
     out, err = child.communicate(timeout=60)
     assert child.returncode == -signal.SIGKILL, err
-    assert out.split("\n")[:-1] == ["committed 0"]  # the 2nd episode's commit point was reached, then death
+    # the 2nd episode's commit point was reached, then death
+    assert out.split("\n")[:-1] == ["opened", "committed 0"]
     view = FileView(root)
     assert view.pending_commit
     report = validate_dataset(root)  # read-only: sees the committed state through the manifest
@@ -123,6 +125,7 @@ def _kill_and_resume(tmp_path: Path, kills: int, seed: int) -> None:
     root = tmp_path / "ds"
     for _ in range(kills):
         child = _child(root, "free")
+        assert child.stdout.readline() == "opened\n"  # kill while writing, not while importing
         time.sleep(rng.uniform(0.3, 1.5))
         os.kill(child.pid, signal.SIGKILL)
         child.communicate(timeout=30)

@@ -7,7 +7,7 @@ import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from conftest import SMALL, small_episodes, tree_digest, write_dataset
+from conftest import GENERATED, SMALL, small_episodes, tree_digest, write_dataset
 
 from mgdata.errors import DatasetError
 from mgdata.record.staging import EpisodeStager
@@ -16,7 +16,7 @@ from mgdata.record.writer import DatasetWriter
 
 
 def test_two_writes_give_identical_bytes(small_dataset: Path, tmp_path: Path) -> None:
-    again = write_dataset(tmp_path / "again", small_episodes())
+    again = write_dataset(tmp_path / "again", small_episodes(), **GENERATED)
     assert tree_digest(again) == tree_digest(small_dataset)
 
 
@@ -37,7 +37,7 @@ def test_parallel_staging_matches_single_process(small_dataset: Path, tmp_path: 
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
         staged = list(pool.map(_stage, reversed(jobs)))  # finished out of order on purpose
     root = tmp_path / "parallel"
-    with DatasetWriter.create(root, SMALL, spec=SYNTHETIC_SPEC) as writer:
+    with DatasetWriter.create(root, SMALL, spec=SYNTHETIC_SPEC, **GENERATED) as writer:
         for folder in sorted(staged):
             writer.append_staged(folder)
     assert not any((tmp_path / "stage").iterdir())  # appended folders are consumed
