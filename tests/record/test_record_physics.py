@@ -154,7 +154,8 @@ def test_doc_example_restores_and_renders_frame_t(recorded: Path) -> None:
     for name in ("qpos", "qvel", "xpos", "xquat", "site_xpos", "geom_xpos"):
         assert np.array_equal(getattr(data, name), getattr(live.data, name)), name
     with CameraRig(live, cameras=("front",), size=SIZE) as rig:
-        assert np.array_equal(rgb, rig.render()["front"])  # the same pixels mgdata rendered
+        ours = rig.render()["front"]  # mgdata's rig draws coarser shapes and robot meshes (docs/render.md)
+    assert np.abs(rgb.astype(int) - ours.astype(int)).mean() < 2.0  # the same picture, within a level or two
     video = reader.frames(e, "front")[t]
     mse = np.mean((video.astype(np.float64) - rgb.astype(np.float64)) ** 2)
     assert 10 * np.log10(255.0**2 / mse) > 28  # and what the (lossy) video holds
@@ -170,7 +171,8 @@ def test_one_scene_per_task_delta_coded_and_referenced_from_the_episodes_table(r
     for e, task_id in enumerate(TASKS):
         assert reader.scene_mjb(e) == model_bytes(_scene(task_id).model)
     assert len(rows[1]["data"]) == rows[1]["size"] and rows[0]["size"] > 4_000_000
-    assert (recorded / layout.SCENES_PATH).stat().st_size < 2_000_000 + 100_000  # whole + delta
+    # one whole model (with the far level-of-detail robot meshes, docs/render.md) + one small delta
+    assert (recorded / layout.SCENES_PATH).stat().st_size < 2_600_000 + 100_000
     assert reader.info["mgdata"]["sha256"][layout.SCENES_PATH] == sha256_file(recorded / layout.SCENES_PATH)
     feature = reader.info["features"][layout.PHYSICS_STATE]
     assert feature["dtype"] == "float64" and feature["shape"] == [78]
