@@ -1,0 +1,46 @@
+"""Joint identification during calibration: which servo moved when the operator moved one joint.
+
+A calibration step asks the operator to move one named joint (in its positive direction, then back); a
+:class:`MotionWatch` is fed every reading meanwhile and afterwards says which servo moved most, how far and in
+which direction. A servo other than the expected one is the "swapped ids" wiring fault, reported by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from mgdata.errors import DeviceError
+from teleop.bus import Motor
+from teleop.ticks import Unwrapper
+
+
+class MotionWatch:
+    """Excursion of every servo from its reading when the watch started (ticks, unwrapped)."""
+
+    def __init__(self, first: np.ndarray) -> None:
+        self._u = Unwrapper(first)
+        self._start = self._u.value.copy()
+        self.lo = np.zeros(len(self._start), dtype=np.int64)
+        self.hi = np.zeros(len(self._start), dtype=np.int64)
+
+    def update(self, reading: np.ndarray) -> None:
+        d = self._u.update(reading) - self._start
+        self.lo = np.minimum(self.lo, d)
+        self.hi = np.maximum(self.hi, d)
+
+    def moved(self, motors: Sequence[Motor], expected: int, min_ticks: int, port: str) -> int:
+        """The sign (+1/-1) of the expected servo's larger excursion; errors if another servo moved most or
+        the expected one moved less than ``min_ticks``."""
+        span = np.maximum(self.hi, -self.lo)
+        names = [f"{m.name} (id {m.id})" for m in motors]
+        k = int(np.argmax(span))
+        if span[k] < min_ticks:
+            raise DeviceError(f"calibration: no servo on {port} moved by {min_ticks} ticks while {names[expected]} "
+                              "was to be moved; move the joint further (about 30 degrees) and repeat")
+        if k != expected:
+            raise DeviceError(f"calibration: moving {names[expected]} moved the servo registered as {names[k]} on "
+                              f"{port} ({span[k]} ticks; {names[expected]}'s servo moved {span[expected]}): the "
+                              "two servos' ids look swapped; fix the ids (or the cabling) and calibrate again")
+        return 1 if self.hi[k] >= -self.lo[k] else -1
