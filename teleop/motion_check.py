@@ -21,18 +21,22 @@ class MotionWatch:
 
     def __init__(self, first: np.ndarray) -> None:
         self._u = Unwrapper(first)
-        self._start = self._u.value.copy()
-        self.lo = np.zeros(len(self._start), dtype=np.int64)
-        self.hi = np.zeros(len(self._start), dtype=np.int64)
+        self.start = self._u.value.copy()
+        self.lo = np.zeros(len(self.start), dtype=np.int64)
+        self.hi = np.zeros(len(self.start), dtype=np.int64)
+        self.first_sign = np.zeros(len(self.start), dtype=np.int64)
+        self.threshold = 100  # ticks past which a servo's first direction of motion is recorded
 
     def update(self, reading: np.ndarray) -> None:
-        d = self._u.update(reading) - self._start
+        d = self._u.update(reading) - self.start
         self.lo = np.minimum(self.lo, d)
         self.hi = np.maximum(self.hi, d)
+        fresh = (self.first_sign == 0) & (np.abs(d) > self.threshold)
+        self.first_sign[fresh] = np.sign(d[fresh])
 
     def moved(self, motors: Sequence[Motor], expected: int, min_ticks: int, port: str) -> int:
-        """The sign (+1/-1) of the expected servo's larger excursion; errors if another servo moved most or
-        the expected one moved less than ``min_ticks``."""
+        """The direction (+1/-1, in ticks) in which the expected servo first moved; errors if another servo
+        moved most or the expected one moved less than ``min_ticks``."""
         span = np.maximum(self.hi, -self.lo)
         names = [f"{m.name} (id {m.id})" for m in motors]
         k = int(np.argmax(span))
@@ -43,4 +47,4 @@ class MotionWatch:
             raise DeviceError(f"calibration: moving {names[expected]} moved the servo registered as {names[k]} on "
                               f"{port} ({span[k]} ticks; {names[expected]}'s servo moved {span[expected]}): the "
                               "two servos' ids look swapped; fix the ids (or the cabling) and calibrate again")
-        return 1 if self.hi[k] >= -self.lo[k] else -1
+        return int(self.first_sign[k])
