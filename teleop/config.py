@@ -19,6 +19,7 @@ class LeaderConfig:
     reader_hz: float = 200.0
     stale_s: float = 0.25
     gripper_threshold: float = 0.5
+    max_joint_step: float = 0.15
 
     def __post_init__(self) -> None:
         if self.reader_hz < 100.0:

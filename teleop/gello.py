@@ -109,9 +109,14 @@ class GelloCalibration:
         if not path.is_file():
             raise RecipeError(f"GELLO calibration file {path} does not exist; run "
                               "`mgdata teleop calibrate --arm gello --port PORT --out FILE` first")
+        return cls.from_json(path.read_text(encoding="utf-8"), str(path))
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "calibration") -> GelloCalibration:
+        """Parse a calibration file's text; ``source`` names it in errors."""
         try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-            if d.pop("arm") != "gello":
+            d = json.loads(text)
+            if d.pop("arm", None) != "gello":
                 raise ValueError("not a GELLO calibration (arm is not 'gello')")
             joints = tuple(GelloJoint(int(j["id"]), int(j["sign"]), int(j["offset"])) for j in d.pop("joints"))
             if len(joints) != 7 or any(j.sign not in (1, -1) for j in joints):
@@ -121,7 +126,7 @@ class GelloCalibration:
                        gripper_open=int(d["gripper_open"]), gripper_closed=int(d["gripper_closed"]),
                        pose=tuple(float(v) for v in d["pose"]))
         except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
-            raise RecipeError(f"{path}: not a valid GELLO calibration file: {err}") from None
+            raise RecipeError(f"{source}: not a valid GELLO calibration file: {err}") from None
 
 
 class GelloCalibrator:

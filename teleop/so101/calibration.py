@@ -111,9 +111,14 @@ class SO101Calibration:
         if not path.is_file():
             raise RecipeError(f"SO-101 calibration file {path} does not exist; run "
                               "`mgdata teleop calibrate --arm so101 --port PORT --out FILE` first")
+        return cls.from_json(path.read_text(encoding="utf-8"), str(path))
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "calibration") -> SO101Calibration:
+        """Parse a calibration file's text; ``source`` names it in errors."""
         try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-            if d["arm"] != "so101":
+            d = json.loads(text)
+            if d.get("arm") != "so101":
                 raise ValueError("not an SO-101 calibration (arm is not 'so101')")
             motors = {n: MotorCalibration(**{k: int(v) for k, v in d["motors"][n].items()}) for n in MOTOR_NAMES}
             mapping = d["mapping"]
@@ -124,7 +129,7 @@ class SO101Calibration:
                 raise ValueError("mapping.scale must be > 0")
             return cls(str(d["port"]), int(d["baudrate"]), motors, quat, float(mapping["scale"]))  # type: ignore[arg-type]
         except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
-            raise RecipeError(f"{path}: not a valid SO-101 calibration file: {err}") from None
+            raise RecipeError(f"{source}: not a valid SO-101 calibration file: {err}") from None
 
 
 class SO101Calibrator:
