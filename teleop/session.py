@@ -38,6 +38,7 @@ from mgdata.engine.generate import failed_path
 from mgdata.engine.runner import EpisodeRunner, StepOutcome
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.record.commit import work_dir
+from mgdata.record.episode import EpisodeMeta, Frame
 from mgdata.record.recorder import Recorder
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.writer import DatasetWriter
@@ -240,7 +241,7 @@ class TeleopSession:
         self.mapper.reset(self.scene.arm_q())
         shutil.rmtree(self.stage_dir, ignore_errors=True)
         stager = self.writer.stager(self.stage_dir / "episode")
-        self.recorder.sink = stager
+        self.recorder.sink = _Tap(stager, self.status)
         self.episode = _Episode(stager, self._draw_index() if draw is None else draw)
         self._pending = StepEvents()
         self.runner.start()
@@ -362,6 +363,23 @@ class TeleopSession:
             self.failed.close()
         self.cameras.close()
         shutil.rmtree(self.stage_dir, ignore_errors=True)
+
+
+class _Tap:
+    """Forwards frames to the episode's stager and keeps the latest camera images for the operator view."""
+
+    def __init__(self, sink: EpisodeStager, status: SessionStatus) -> None:
+        self.sink, self.status = sink, status
+
+    def add_frame(self, frame: Frame) -> None:
+        self.sink.add_frame(frame)
+        self.status.images = dict(frame.images)
+
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        self.sink.end_episode(meta)
+
+    def discard_episode(self) -> None:
+        self.sink.discard_episode()
 
 
 class _NoSink:
