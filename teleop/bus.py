@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +23,11 @@ import numpy as np
 
 from mgdata.errors import DeviceError
 from teleop.sdk import require
+
+
+DEFAULT_LATENCY_MS = 16.0
+"""The SDKs' allowance (ms) for the USB-serial adapter's latency, part of every reply timeout (16: FTDI's
+default). An emulated bus answering from a thread of a heavily loaded host needs more."""
 
 
 @dataclass(frozen=True)
@@ -65,9 +71,11 @@ class ServoBus:
         self.baudrate = baudrate
         self.motors = tuple(motors)
         self.retries = retries
+        self.drain_s = 0.05
         self.read_errors = 0
         self._f = _FAMILIES[family]
         self._sdk: Any = require(self._f.sdk)
+        self._sdk.port_handler.LATENCY_TIMER = DEFAULT_LATENCY_MS  # read by every timeout computation
         self._port = self._sdk.PortHandler(port)
         try:
             opened = self._port.openPort()
@@ -88,6 +96,20 @@ class ServoBus:
         for m in self.motors:
             self._group.addParam(m.id)
 
+    def _drain(self) -> None:
+        """After a failed transaction: wait out a late reply (a loaded host or a slow USB adapter can deliver
+        it after the SDK's timeout), then drop it, so it cannot be taken for the answer to the retry."""
+        time.sleep(self.drain_s)
+        self._port.clearPort()
+
+    def _call(self, fn: Any, *args: Any) -> tuple:
+        """An SDK transaction; an exception on a malformed reply (the SDKs index short packets) counts as a
+        corrupt reply, like a checksum error."""
+        try:
+            return fn(self._port, *args)
+        except (IndexError, ValueError, TypeError):
+            return (None, self._sdk.COMM_RX_CORRUPT, 0)
+
     def _where(self, m: Motor) -> str:
         return f"motor {m.name} (id {m.id}) on {self.port}"
 
@@ -95,10 +117,10 @@ class ServoBus:
         silent = []
         for m in self.motors:
             for _ in range(self.retries + 1):
-                model, result, _err = self._ph.ping(self._port, m.id)
+                model, result, _err = self._call(self._ph.ping, m.id)
                 if result == self._sdk.COMM_SUCCESS:
                     break
-                self._port.clearPort()
+                self._drain()
             else:
                 silent.append(m)
                 continue
@@ -112,29 +134,29 @@ class ServoBus:
     def write1(self, m: Motor, address: int, value: int) -> None:
         """Write one byte to a motor's control table (retried)."""
         for _ in range(self.retries + 1):
-            result, err = self._ph.write1ByteTxRx(self._port, m.id, address, value)
+            result, err = self._call(self._ph.write1ByteTxRx, m.id, address, value)[-2:]
             if result == self._sdk.COMM_SUCCESS and err == 0:
                 return
-            self._port.clearPort()
+            self._drain()
         raise DeviceError(f"{self._where(m)} did not accept a write to address {address}")
 
     def read(self, m: Motor, address: int, size: int) -> int:
         """Read an unsigned 1/2/4-byte value from a motor's control table (retried)."""
         fn = {1: self._ph.read1ByteTxRx, 2: self._ph.read2ByteTxRx, 4: self._ph.read4ByteTxRx}[size]
         for _ in range(self.retries + 1):
-            value, result, err = fn(self._port, m.id, address)
+            value, result, err = self._call(fn, m.id, address)
             if result == self._sdk.COMM_SUCCESS and err == 0:
                 return int(value)
-            self._port.clearPort()
+            self._drain()
         raise DeviceError(f"{self._where(m)} did not answer a read of address {address}")
 
     def write2(self, m: Motor, address: int, value: int) -> None:
         """Write a 2-byte value (retried)."""
         for _ in range(self.retries + 1):
-            result, err = self._ph.write2ByteTxRx(self._port, m.id, address, value)
+            result, err = self._call(self._ph.write2ByteTxRx, m.id, address, value)[-2:]
             if result == self._sdk.COMM_SUCCESS and err == 0:
                 return
-            self._port.clearPort()
+            self._drain()
         raise DeviceError(f"{self._where(m)} did not accept a write to address {address}")
 
     def read_positions(self) -> np.ndarray:
@@ -142,15 +164,21 @@ class ServoBus:
         value, Feetech's 12-bit position."""
         size = self._f.position_size
         for _ in range(self.retries + 1):
-            result = self._group.txRxPacket()
-            if result == self._sdk.COMM_SUCCESS:
-                raw = [self._group.getData(m.id, self._f.present_position, size) for m in self.motors]
+            try:
+                result = self._group.txRxPacket()
+            except (IndexError, ValueError, TypeError):
+                result = self._sdk.COMM_RX_CORRUPT
+            addr = self._f.present_position
+            if result == self._sdk.COMM_SUCCESS and all(self._group.isAvailable(m.id, addr, size)
+                                                        for m in self.motors):
+                # (a short reply with a valid checksum, e.g. a late status of an earlier write, is not data)
+                raw = [self._group.getData(m.id, addr, size) for m in self.motors]
                 out = np.asarray(raw, dtype=np.int64)
                 if size == 4:
                     out = np.where(out >= 1 << 31, out - (1 << 32), out)
                 return out
             self.read_errors += 1
-            self._port.clearPort()
+            self._drain()
         self._blame()
         raise AssertionError("unreachable")
 
@@ -160,12 +188,12 @@ class ServoBus:
         for m in self.motors:
             ok = False
             for _ in range(self.retries + 1):
-                _value, result, _err = {2: self._ph.read2ByteTxRx, 4: self._ph.read4ByteTxRx}[
-                    self._f.position_size](self._port, m.id, self._f.present_position)
+                read = {2: self._ph.read2ByteTxRx, 4: self._ph.read4ByteTxRx}[self._f.position_size]
+                _value, result, _err = self._call(read, m.id, self._f.present_position)
                 if result == self._sdk.COMM_SUCCESS:
                     ok = True
                     break
-                self._port.clearPort()
+                self._drain()
             if not ok:
                 bad.append(f"{m.name} (id {m.id})")
         who = ", ".join(bad) if bad else "an unidentified motor (each answers alone)"

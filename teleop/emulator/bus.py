@@ -29,7 +29,8 @@ from teleop.emulator.servo import EmulatedServo
 
 @dataclass(frozen=True)
 class Corruption:
-    """Flip one byte in a fraction ``rate`` of the status packets of servos ``ids`` (all if empty)."""
+    """Flip one payload or checksum byte in a fraction ``rate`` of the status packets of servos ``ids`` (all
+    if empty): line noise that the checksum catches."""
 
     rate: float
     ids: tuple[int, ...] = ()
@@ -108,7 +109,8 @@ class EmulatedBus:
         self.replies += 1
         c = self.corruption
         if c is not None and (not c.ids or servo.id in c.ids) and self._rng.random() < c.rate:
-            i = int(self._rng.integers(len(packet) - 3, len(packet)))  # a data or checksum byte
+            first = 9 if self.family == "dynamixel" else 5  # payload after the header, id, length, error
+            i = int(self._rng.integers(min(first, len(packet) - 1), len(packet)))  # a data or checksum byte
             packet[i] ^= 0x5A
             self.corrupted += 1
         return bytes(packet)

@@ -51,12 +51,13 @@ def calibrate_gello(bus: ServoBus, clock: ManualClock, pose: Sequence[float], tr
 def so101_calibration_scripts(middle: Sequence[float], lower: Sequence[float], upper: Sequence[float]
                               ) -> list[JointScript]:
     """Joint scripts for an SO-101 calibration: hold ``middle`` until t = 1 s, then sweep joint k during
-    [1 + 3k, 4 + 3k] s: to its upper end (positive direction first), to its lower end, back to the middle."""
+    [1 + 3k, 4 + 3k] s: to its upper end (positive direction first), to its lower end (resting 0.3 s at
+    each), back to the middle."""
     scripts = []
     for k in range(6):
         t0 = 1 + 3 * k
-        scripts.append(JointScript([0, t0, t0 + 1, t0 + 2, t0 + 3],
-                                   [middle[k], middle[k], upper[k], lower[k], middle[k]]))
+        scripts.append(JointScript([0, t0, t0 + 0.8, t0 + 1.1, t0 + 1.9, t0 + 2.2, t0 + 3],
+                                   [middle[k], middle[k], upper[k], upper[k], lower[k], lower[k], middle[k]]))
     return scripts
 
 

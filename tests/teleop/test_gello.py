@@ -165,6 +165,7 @@ def test_lerobot_pinned_dynamixel_sdk_38(tmp_path: Path) -> None:
         "assert dynamixel_sdk.__file__.startswith(%r), dynamixel_sdk.__file__\n"
         "from tests.teleop.test_gello import _read_q\n"
         "from tests.teleop.conftest import GELLO_BUILD\n"
+        "import teleop.bus; teleop.bus.DEFAULT_LATENCY_MS = 250.0\n"
         "from teleop.bus import ServoBus\n"
         "from teleop.emulator.arms import ManualClock\n"
         "from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts\n"
