@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import multiprocessing
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -72,7 +73,8 @@ class ArmBuild:
         mount[joint] = int(round(TICKS * 5 - ticks_below - d * angle * TICKS / (2 * np.pi)))
         return replace(self, mount=tuple(mount))
 
-    def bus(self, scripts: Sequence[JointScript], clock: Callable[[], float]) -> EmulatedBus:
+    def bus(self, scripts: Sequence[JointScript], clock: Callable[[], float], *, process: bool = True
+            ) -> EmulatedBus:
         """The bus of this arm with each joint following its script, on a fresh pty (call ``start()`` or use
         it as a context manager)."""
         if len(scripts) != len(self.ids):
@@ -84,14 +86,23 @@ class ArmBuild:
         servos = [EmulatedServo(ids[k], self.table, scripts[k], mount_ticks=self.mount[k],
                                 direction=self.direction[k], clock=clock)
                   for k in range(len(ids)) if k not in self.missing]
-        return EmulatedBus(self.family, servos, self.corruption)
+        return EmulatedBus(self.family, servos, self.corruption, process=process)
 
 
 class ManualClock:
-    """A clock the test sets: the emulated arm is wherever its scripts say at :attr:`t`."""
+    """A clock the test sets: the emulated arm is wherever its scripts say at :attr:`t` (shared with an
+    emulator process forked after the clock was made)."""
 
     def __init__(self, t: float = 0.0) -> None:
-        self.t = t
+        self._t = multiprocessing.Value("d", t, lock=False)
+
+    @property
+    def t(self) -> float:
+        return float(self._t.value)
+
+    @t.setter
+    def t(self, value: float) -> None:
+        self._t.value = value
 
     def __call__(self) -> float:
-        return self.t
+        return float(self._t.value)

@@ -14,12 +14,14 @@ Example::
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import select
 import threading
 import tty
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -40,14 +42,16 @@ class Corruption:
 class EmulatedBus:
     """Servos of one protocol family (``"dynamixel"`` Protocol 2.0 or ``"feetech"`` SCS/STS) on a pty.
 
+    With ``process`` (the default) the servos answer from a forked process, as a real bus answers
+    independently of the host; otherwise from a thread (then a test can inspect :attr:`servos` live).
+
     Attributes:
         port: the host-side device path to open with the SDK.
-        servos: id -> servo, as found on the bus.
-        replies: status packets sent; ``corrupted``: how many of them were corrupted.
+        servos: id -> servo, as found on the bus (the parent's copies when ``process``).
     """
 
-    def __init__(self, family: str, servos: Sequence[EmulatedServo], corruption: Corruption | None = None
-                 ) -> None:
+    def __init__(self, family: str, servos: Sequence[EmulatedServo], corruption: Corruption | None = None,
+                 *, process: bool = True) -> None:
         if family not in ("dynamixel", "feetech"):
             raise ValueError(f"unknown servo family {family!r}")
         self.family = family
@@ -55,14 +59,30 @@ class EmulatedBus:
         self.servos = {s.id: s for s in servos}
         self.corruption = corruption
         self._rng = np.random.default_rng(corruption.seed if corruption else 0)
-        self.replies = 0
-        self.corrupted = 0
+        self._replies = multiprocessing.Value("l", 0, lock=False)
+        self._corrupted = multiprocessing.Value("l", 0, lock=False)
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)
         tty.setraw(self._master)
         self.port = os.ttyname(self._slave)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._serve, name=f"emulated-{family}-bus", daemon=True)
+        self.process = process
+        if process:  # a device of its own: answers on time however busy the host's interpreter is
+            ctx = multiprocessing.get_context("fork")
+            self._stop: Any = ctx.Event()
+            self._worker: Any = ctx.Process(target=self._serve, name=f"emulated-{family}-bus", daemon=True)
+        else:
+            self._stop = threading.Event()
+            self._worker = threading.Thread(target=self._serve, name=f"emulated-{family}-bus", daemon=True)
+
+    @property
+    def replies(self) -> int:
+        """Status packets sent so far."""
+        return int(self._replies.value)
+
+    @property
+    def corrupted(self) -> int:
+        """Status packets corrupted so far."""
+        return int(self._corrupted.value)
 
     def __enter__(self) -> EmulatedBus:
         self.start()
@@ -72,15 +92,19 @@ class EmulatedBus:
         self.close()
 
     def start(self) -> None:
-        self._thread.start()
+        self._worker.start()
 
     def close(self) -> None:
         """Stop answering and release the pty (idempotent)."""
-        if self._stop.is_set():
+        if getattr(self, "_closed", False):
             return
+        self._closed = True
         self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
+        if self._worker.is_alive():
+            self._worker.join(timeout=2.0)
+        if self.process and self._worker.is_alive():
+            self._worker.terminate()
+            self._worker.join(timeout=2.0)
         for fd in (self._master, self._slave):
             try:
                 os.close(fd)
@@ -106,13 +130,13 @@ class EmulatedBus:
 
     def _reply(self, servo: EmulatedServo, params: bytes = b"", error: int = 0) -> bytes:
         packet = bytearray(self.proto.status(servo.id, error, params))
-        self.replies += 1
+        self._replies.value += 1
         c = self.corruption
         if c is not None and (not c.ids or servo.id in c.ids) and self._rng.random() < c.rate:
             first = 9 if self.family == "dynamixel" else 5  # payload after the header, id, length, error
             i = int(self._rng.integers(min(first, len(packet) - 1), len(packet)))  # a data or checksum byte
             packet[i] ^= 0x5A
-            self.corrupted += 1
+            self._corrupted.value += 1
         return bytes(packet)
 
     def _answer(self, p: dynamixel.Instruction | feetech.Instruction) -> bytes:

@@ -89,7 +89,7 @@ def test_leader_torque_is_turned_off() -> None:
     """A servo left with torque on holds its shaft (the hand cannot move it); the driver must release it."""
     clock = ManualClock()
     scripts = [JointScript([0, 1], [a, a + 0.5]) for a in HOME_Q] + [JointScript.constant(0.0)]
-    with GELLO_BUILD.bus(scripts, clock) as emu:
+    with GELLO_BUILD.bus(scripts, clock, process=False) as emu:
         for servo in emu.servos.values():
             servo.write(64, b"\x01")  # torque on, as a previous program may have left it
         bus = ServoBus("dynamixel", emu.port, gello_motors(True))
