@@ -43,7 +43,7 @@ def teleop(
     port: Annotated[str | None, typer.Option(help="Serial port (default: the calibration file's).")] = None,
     keep_failed: Annotated[bool, typer.Option(help="Also store failed/unsafe episodes, in <out>_failed.")]
     = False,
-    episodes: Annotated[int | None, typer.Option(help="Stop after this many stored episodes.")] = None,
+    episodes: Annotated[int | None, typer.Option(help="Stop after this many finished episodes.")] = None,
     autostart: Annotated[bool, typer.Option(help="Start recording at once and after each episode.")] = False,
     view: Annotated[bool, typer.Option(help="Serve the operator view in the browser.")] = True,
     host: Annotated[str, typer.Option(help="Operator view address (127.0.0.1: this machine only).")]

@@ -63,7 +63,7 @@ class SessionJob:
     Attributes:
         arm: ``gello`` or ``so101``; family, task: the task to demonstrate; out: the dataset.
         keep_failed: also store failed/unsafe episodes, in ``<out>_failed``.
-        episodes: stop after this many stored episodes (``None``: until ``quit``).
+        episodes: stop after this many finished episodes, stored or not (``None``: until ``quit``).
         autostart: start recording at once and after each episode (scripted sessions).
         codec: video codec of a new dataset.
     """
@@ -157,6 +157,7 @@ class TeleopSession:
                                     hold_steps=self.recipe.tasks.hold_steps)
         self.episode: _Episode | None = None
         self.stored: list[tuple[bool, int]] = []  # (kept, episode index) per stored episode
+        self.finished = 0  # episodes ended by the gate, the horizon or the operator (stored or not)
         self.step_times: list[float] = []  # monotonic start time of every control step (for jitter)
         self._pending = StepEvents()
         self._quit = False
@@ -302,6 +303,9 @@ class TeleopSession:
         self._store(meta.kept, ep.stager.path, stream)
         what = "kept" if meta.kept else f"{meta.failure_stage}: {meta.failure_reason}"
         self.status.message = f"episode ended ({what})"
+        self.finished += 1
+        if self.job.episodes is not None and self.finished >= self.job.episodes:
+            self._quit = True
 
     def _store(self, kept: bool, staged: Path, stream: LeaderStream) -> None:
         target = self.writer if kept else self.failed
@@ -313,8 +317,6 @@ class TeleopSession:
         self.stored.append((kept, index))
         self.status.kept += int(kept)
         self.status.failed += int(not kept)
-        if self.job.episodes is not None and len(self.stored) >= self.job.episodes:
-            self._quit = True
 
     def _drop(self, why: str) -> None:
         self.runner.discard()

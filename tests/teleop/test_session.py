@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from mgdata.record.reader import DatasetReader
 from mgdata.record.validate import validate_dataset
@@ -86,3 +87,54 @@ def test_episode_without_keep_failed_is_dropped(gello_cal: GelloCalibration, tmp
     assert session.stored == []
     assert not out.with_name("jar_teleop_failed").exists()
     assert validate_dataset(out).episodes == 0
+
+
+def _planner_demo() -> np.ndarray:
+    """The commanded joints + gripper of a kept planner demonstration of jar task 0 (no rendering)."""
+    from mgdata.engine.executor import Executor
+    from mgdata.grasps.db import GraspDB
+    from mgdata.paths import grasps_dir
+    from mgdata.record.episode import MemorySink
+    from mgdata.tasks.base import base_task
+    from mgdata.tasks.recipe import load_recipe
+
+    recipe = load_recipe("jar")
+    ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
+    sink = MemorySink()
+    try:
+        result = ex.run(0, sink)
+    finally:
+        ex.close()
+    assert result.kept, f"the planner's demonstration failed: {result.stage} {result.reason}"
+    frames, _meta = sink.episodes[0]
+    return np.stack([f.action for f in frames[:-1]]).astype(np.float64)
+
+
+@pytest.mark.slow
+def test_gello_replays_a_demonstration_that_the_gate_keeps(gello_cal: GelloCalibration, tmp_path: Path) -> None:
+    """A person's hand motion, scripted: the GELLO's joints follow a planner demonstration of jar task 0
+    (lid closed, jar carried into the goal) on the session's clock, the trigger squeezed while the gripper is
+    commanded closed. The session records it through the same monitor and gate, which keep it."""
+    actions = _planner_demo()
+    t = np.arange(len(actions)) * 0.05
+    scripts = [JointScript(t, actions[:, k]) for k in range(7)]
+    # the trigger jumps between released and squeezed where the gripper command changes
+    knots_t, knots_a = [0.0], [0.6 * actions[0, 7]]
+    for j in range(1, len(actions)):
+        if actions[j, 7] != actions[j - 1, 7]:
+            knots_t += [t[j] - 1e-6, t[j]]
+            knots_a += [0.6 * actions[j - 1, 7], 0.6 * actions[j, 7]]
+    scripts.append(JointScript(knots_t + [t[-1]], knots_a + [0.6 * actions[-1, 7]]))
+    cal_file = tmp_path / "gello.json"
+    gello_cal.save(cal_file)
+    out = tmp_path / "jar_teleop"
+    session = run_scripted_session("gello", GELLO_BUILD, cal_file.read_text(), scripts, out)
+    assert session.stored == [(True, 0)], session.status.message
+    meta = DatasetReader(out).record(0).meta
+    assert meta.kept and meta.success and meta.source == "gello" and not any(
+        v is not None for v in meta.t_violation.values())
+    report = validate_dataset(out)
+    assert report.ok, report.problems
+    replayed = tmp_path / "replayed"
+    replay_episode(out, 0, replayed)
+    assert _files(replayed) == _files(out)
