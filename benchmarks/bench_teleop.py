@@ -145,7 +145,8 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
     # lateness against a schedule that restarts after an overrun (as the loop does)
     late = np.maximum(0.0, np.diff(starts) - 0.05) * 1000
     lat = [(recv - sent) * 1000 for _step, sent, recv in seen if sent > 0]
-    print(f"session loop: {len(starts)} ticks in {wall:.1f} s ({len(starts) / wall:.1f} Hz, target 20 Hz) on one core, "
+    print(f"session loop: {len(starts)} ticks in {wall:.1f} s ({len(starts) / wall:.1f} Hz, target 20 Hz) "
+          "on one core, "
           f"leader read at {rate:.0f} Hz")
     print(f"  period lateness (ms): p50 {_pct(late, 50):.1f}  p99 {_pct(late, 99):.1f}  max {late.max():.1f} "
           "(target p99 <= 5)")

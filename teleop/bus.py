@@ -24,7 +24,6 @@ import numpy as np
 from mgdata.errors import DeviceError
 from teleop.sdk import require
 
-
 DEFAULT_LATENCY_MS = 16.0
 """The SDKs' allowance (ms) for the USB-serial adapter's latency, part of every reply timeout (16: FTDI's
 default). An emulated bus answering from a thread of a heavily loaded host needs more."""
@@ -52,7 +51,8 @@ class _Family:
 _FAMILIES = {
     "dynamixel": _Family("dynamixel", 2.0, torque_enable=64, present_position=132, position_size=4,
                          homing_offset=None),
-    "feetech": _Family("feetech", 0, torque_enable=40, present_position=56, position_size=2, homing_offset=31),
+    "feetech": _Family("feetech", 0, torque_enable=40, present_position=56, position_size=2,
+                       homing_offset=31),
 }
 
 

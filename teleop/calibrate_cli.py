@@ -39,8 +39,8 @@ def _watch_until_enter(bus: ServoBus, watch: MotionWatch, prompt: Prompt, text: 
         raise errors[0]
 
 
-def calibrate_gello_interactive(port: str, baudrate: int, pose: Sequence[float], trigger: bool, prompt: Prompt,
-                                say: Say) -> GelloCalibration:
+def calibrate_gello_interactive(port: str, baudrate: int, pose: Sequence[float], trigger: bool,
+                                prompt: Prompt, say: Say) -> GelloCalibration:
     bus = ServoBus("dynamixel", port, gello_motors(trigger), baudrate=baudrate)
     try:
         c = GelloCalibrator(bus, pose, has_gripper=trigger)
@@ -48,8 +48,8 @@ def calibrate_gello_interactive(port: str, baudrate: int, pose: Sequence[float],
         c.capture_pose(bus.read_positions())
         for k in range(7):
             watch = c.watch(bus.read_positions())
-            _watch_until_enter(bus, watch, prompt, f"Move joint{k + 1} about 30 degrees in the Panda's positive "
-                               "direction, then back to the pose", n=7)
+            _watch_until_enter(bus, watch, prompt, f"Move joint{k + 1} about 30 degrees in the Panda's "
+                               "positive direction, then back to the pose", n=7)
             sign = c.finish_joint(k, watch)
             say(f"  joint{k + 1}: servo id {bus.motors[k].id}, sign {sign:+d}")
         if trigger:
@@ -69,8 +69,8 @@ def calibrate_so101_interactive(port: str, baudrate: int, scale: float, prompt: 
         c.capture_middle()
         for k, name in enumerate(MOTOR_NAMES):
             watch = c.watch(bus.read_positions())
-            _watch_until_enter(bus, watch, prompt, f"Move {name} first towards its positive end, then through its "
-                               "whole range between the stops, then back to the middle")
+            _watch_until_enter(bus, watch, prompt, f"Move {name} first towards its positive end, then "
+                               "through its whole range between the stops, then back to the middle")
             rec = c.finish_joint(k, watch)
             say(f"  {name}: range {rec.range_min}..{rec.range_max} ticks, homing offset {rec.homing_offset}, "
                 f"drive mode {rec.drive_mode}")

@@ -17,7 +17,8 @@ from mgdata.errors import RecipeError
 
 teleop_app = typer.Typer(invoke_without_command=True, no_args_is_help=False, add_completion=False,
                          pretty_exceptions_enable=False,
-                         help="Teleoperate the Panda with a GELLO or SO-101 leader arm into a LeRobot dataset.")
+                         help="Teleoperate the Panda with a GELLO or SO-101 leader arm into a LeRobot "
+                         "dataset.")
 
 ARM_HELP = "Leader arm: gello or so101."
 
@@ -64,7 +65,8 @@ def teleop(
 
     run_live(LiveOptions(arm=arm, family=family, task=task, out=out,
                          calibration=calibration or Path(f"teleop-{arm}.json"), port=port,
-                         keep_failed=keep_failed, episodes=episodes, autostart=autostart, view=view, host=host,
+                         keep_failed=keep_failed, episodes=episodes, autostart=autostart, view=view,
+                         host=host,
                          http_port=http_port), _say)
 
 

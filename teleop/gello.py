@@ -118,7 +118,8 @@ class GelloCalibration:
             d = json.loads(text)
             if d.pop("arm", None) != "gello":
                 raise ValueError("not a GELLO calibration (arm is not 'gello')")
-            joints = tuple(GelloJoint(int(j["id"]), int(j["sign"]), int(j["offset"])) for j in d.pop("joints"))
+            joints = tuple(GelloJoint(int(j["id"]), int(j["sign"]), int(j["offset"]))
+                           for j in d.pop("joints"))
             if len(joints) != 7 or any(j.sign not in (1, -1) for j in joints):
                 raise ValueError("expected 7 joints with sign +1 or -1")
             return cls(port=str(d["port"]), baudrate=int(d["baudrate"]), joints=joints,
@@ -174,12 +175,13 @@ class GelloCalibrator:
         joints = []
         for k, m in enumerate(self.bus.motors[:7]):
             sign = int(self._signs[k])  # type: ignore[arg-type]
-            offset = int(round(self._at_pose[k] - sign * self.pose[k] / RAD_PER_TICK))
+            offset = int(np.rint(self._at_pose[k] - sign * self.pose[k] / RAD_PER_TICK))
             joints.append(GelloJoint(m.id, sign, offset))
         gripper_open = int(self._at_pose[7]) if self.has_gripper else 0
         closed = self._closed if self._closed is not None else gripper_open
         if self.has_gripper and abs(int(signed_diff(closed, gripper_open))) < 50:
-            raise DeviceError(f"calibration: the trigger servo (id {self.bus.motors[7].id}) on {self.bus.port} "
+            raise DeviceError(f"calibration: the trigger servo (id {self.bus.motors[7].id}) on "
+                              f"{self.bus.port} "
                               "moved less than 50 ticks between released and squeezed")
         return GelloCalibration(port=self.bus.port, baudrate=self.bus.baudrate, joints=tuple(joints),
                                 gripper_id=self.bus.motors[7].id if self.has_gripper else None,

@@ -114,4 +114,5 @@ def replay_episode(dataset: Path, episode: int, out: Path) -> str:
     finally:
         session.close()
     kept, index = session.stored[-1]
-    return f"replayed into {out if kept else str(out) + '_failed'} as episode {index} ({'kept' if kept else 'failed'})"
+    where = out if kept else str(out) + "_failed"
+    return f"replayed into {where} as episode {index} ({'kept' if kept else 'failed'})"

@@ -41,10 +41,12 @@ class MotionWatch:
         names = [f"{m.name} (id {m.id})" for m in motors]
         k = int(np.argmax(span))
         if span[k] < min_ticks:
-            raise DeviceError(f"calibration: no servo on {port} moved by {min_ticks} ticks while {names[expected]} "
+            raise DeviceError(f"calibration: no servo on {port} moved by {min_ticks} ticks while "
+                              f"{names[expected]} "
                               "was to be moved; move the joint further (about 30 degrees) and repeat")
         if k != expected:
-            raise DeviceError(f"calibration: moving {names[expected]} moved the servo registered as {names[k]} on "
-                              f"{port} ({span[k]} ticks; {names[expected]}'s servo moved {span[expected]}): the "
-                              "two servos' ids look swapped; fix the ids (or the cabling) and calibrate again")
+            raise DeviceError(f"calibration: moving {names[expected]} moved the servo registered as "
+                              f"{names[k]} on {port} ({span[k]} ticks; {names[expected]}'s servo moved "
+                              f"{span[expected]}): the two servos' ids look swapped; fix the ids (or the "
+                              "cabling) and calibrate again")
         return int(self.first_sign[k])

@@ -17,5 +17,6 @@ def require(name: str) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ImportError:
-        raise MgdataError(f"teleop needs the {dist!r} package, which is not installed; install the teleop extra: "
+        raise MgdataError(f"teleop needs the {dist!r} package, which is not installed; install the teleop "
+                          "extra: "
                           "pip install -e '.[teleop]'") from None

@@ -230,7 +230,8 @@ class TeleopSession:
             elif name == "clutch":
                 self._pending = StepEvents(clutch=True, grip_toggle=self._pending.grip_toggle)
             elif name == "grip":
-                self._pending = StepEvents(clutch=self._pending.clutch, grip_toggle=not self._pending.grip_toggle)
+                self._pending = StepEvents(clutch=self._pending.clutch,
+                                           grip_toggle=not self._pending.grip_toggle)
 
     # -- one episode -----------------------------------------------------------------------------------------
     def _draw_index(self) -> int:
@@ -337,7 +338,8 @@ class TeleopSession:
     def replay(self, stream: LeaderStream) -> None:
         """Re-simulate one recorded episode from its leader stream into this session's dataset(s)."""
         if (stream.arm, stream.family, stream.task_id) != (self.job.arm, self.job.family, self.job.task):
-            raise RecipeError(f"the stream is a {stream.arm} episode of {stream.family} task {stream.task_id}, "
+            raise RecipeError(f"the stream is a {stream.arm} episode of {stream.family} task "
+                              f"{stream.task_id}, "
                               f"not {self.job.arm} {self.job.family} task {self.job.task}")
         self._replaying = stream
         self._begin(draw=stream.draw_index)

@@ -16,8 +16,8 @@ def signed_diff(a: np.ndarray | int, b: np.ndarray | int) -> np.ndarray:
 def to_window(q: np.ndarray, centre: np.ndarray) -> np.ndarray:
     """Angles ``q`` (rad) moved by whole turns into ``[centre - pi, centre + pi)``.
 
-    A joint whose travel is shorter than a turn has exactly one reading in that window, so the reading does not
-    depend on which turn the encoder's counter started in at power-on.
+    A joint whose travel is shorter than a turn has exactly one reading in that window, so the reading does
+    not depend on which turn the encoder's counter started in at power-on.
     """
     return centre + np.mod(q - centre + np.pi, 2.0 * np.pi) - np.pi
 

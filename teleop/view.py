@@ -101,7 +101,8 @@ class OperatorView:
             if mat >= 0:
                 rgba = model.mat_rgba[mat]
             s.add_mesh_simple(f"/world/b{b}/g{g}", mesh[0], mesh[1],
-                              color=tuple(int(255 * c) for c in rgba[:3]), opacity=float(rgba[3]) if rgba[3] < 1 else None,
+                              color=tuple(int(255 * c) for c in rgba[:3]),
+                              opacity=float(rgba[3]) if rgba[3] < 1 else None,
                               wxyz=tuple(model.geom_quat[g]), position=tuple(model.geom_pos[g]))
         self._move_bodies()
 

@@ -129,7 +129,8 @@ class EpisodeRunner:
             reason = reason or (f"goal held for at most {self.gate.streak} consecutive steps "
                                 f"(needs {self.gate.hold_steps})")
         return self.recorder.finish(seed=seed, draw_index=draw_index, kept=kept, success=self.gate.passed,
-                                    failure_stage=None if kept else stage, failure_reason=None if kept else reason,
+                                    failure_stage=None if kept else stage,
+                                    failure_reason=None if kept else reason,
                                     source=source, **meta)
 
     def discard(self) -> None:

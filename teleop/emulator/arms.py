@@ -55,7 +55,8 @@ class ArmBuild:
         """A GELLO: ids 1..7 (+ 8 for the trigger), horns at random positions, mixed directions."""
         n = 8 if gripper else 7
         rng = np.random.default_rng(seed)
-        return cls("dynamixel", XL330, tuple(range(1, n + 1)), tuple(int(v) for v in rng.integers(0, 40000, n)),
+        mount = tuple(int(v) for v in rng.integers(0, 40000, n))
+        return cls("dynamixel", XL330, tuple(range(1, n + 1)), mount,
                    tuple(int(v) for v in rng.choice([-1, 1], n)))
 
     @classmethod
@@ -70,7 +71,7 @@ class ArmBuild:
         joint is at ``angle`` (so powering on there starts the counter at 4094, and moving crosses 4095/0)."""
         d = self.direction[joint]
         mount = list(self.mount)
-        mount[joint] = int(round(TICKS * 5 - ticks_below - d * angle * TICKS / (2 * np.pi)))
+        mount[joint] = int(np.rint(TICKS * 5 - ticks_below - d * angle * TICKS / (2 * np.pi)))
         return replace(self, mount=tuple(mount))
 
     def bus(self, scripts: Sequence[JointScript], clock: Callable[[], float], *, process: bool = True

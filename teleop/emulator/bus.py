@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import select
@@ -106,10 +107,8 @@ class EmulatedBus:
             self._worker.terminate()
             self._worker.join(timeout=2.0)
         for fd in (self._master, self._slave):
-            try:
+            with contextlib.suppress(OSError):
                 os.close(fd)
-            except OSError:
-                pass
 
     # -- serving -----------------------------------------------------------------------------------------
     def _serve(self) -> None:

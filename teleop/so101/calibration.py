@@ -78,7 +78,7 @@ class SO101Calibration:
             m = self.motors[name]
             mid = (m.range_min + m.range_max) / 2.0
             sign = -1.0 if m.drive_mode else 1.0
-            out[k] = sign * float(signed_diff(int(ticks[k]), int(round(mid)))) * RAD_PER_TICK
+            out[k] = sign * float(signed_diff(int(ticks[k]), int(np.rint(mid)))) * RAD_PER_TICK
         return out
 
     def gripper_open(self, ticks: np.ndarray) -> float:
@@ -120,7 +120,8 @@ class SO101Calibration:
             d = json.loads(text)
             if d.get("arm") != "so101":
                 raise ValueError("not an SO-101 calibration (arm is not 'so101')")
-            motors = {n: MotorCalibration(**{k: int(v) for k, v in d["motors"][n].items()}) for n in MOTOR_NAMES}
+            motors = {n: MotorCalibration(**{k: int(v) for k, v in d["motors"][n].items()})
+                      for n in MOTOR_NAMES}
             mapping = d["mapping"]
             quat = tuple(float(v) for v in mapping["align_quat"])
             if len(quat) != 4 or abs(np.linalg.norm(quat) - 1.0) > 1e-6:
@@ -178,14 +179,16 @@ class SO101Calibrator:
         start = int(watch.start[k])
         lo, hi = start + int(watch.lo[k]), start + int(watch.hi[k])
         if hi - lo > TICKS_PER_TURN - self.WRAP_MARGIN:
-            raise DeviceError(f"calibration: {m.name} (id {m.id}) on {self.bus.port} swept {hi - lo} ticks, about "
+            raise DeviceError(f"calibration: {m.name} (id {m.id}) on {self.bus.port} swept {hi - lo} ticks, "
+                              "about "
                               "a full turn; sweep it only between its mechanical stops")
         old = self._offsets[k]
-        offset = old + int(round((lo + hi) / 2.0)) - HALF_TURN
-        offset = (offset + TICKS_PER_TURN // 2) % TICKS_PER_TURN - TICKS_PER_TURN // 2  # same reading mod a turn
+        offset = old + int(np.rint((lo + hi) / 2.0)) - HALF_TURN
+        # the same readings modulo a turn, with the offset in [-2048, 2048)
+        offset = (offset + TICKS_PER_TURN // 2) % TICKS_PER_TURN - TICKS_PER_TURN // 2
         offset = int(np.clip(offset, -MAX_OFFSET, MAX_OFFSET))  # -2048 does not fit: one tick off centre
         lo, hi = lo - (offset - old), hi - (offset - old)  # readings with the new offset
-        turns = int(round(((lo + hi) / 2.0 - HALF_TURN) / TICKS_PER_TURN))
+        turns = int(np.rint(((lo + hi) / 2.0 - HALF_TURN) / TICKS_PER_TURN))
         lo, hi = lo - turns * TICKS_PER_TURN, hi - turns * TICKS_PER_TURN
         self._offsets[k] = offset
         self._write_offset(m, offset)

@@ -16,8 +16,8 @@ from teleop.session import SessionJob, TeleopSession
 FAMILY = {"gello": "dynamixel", "so101": "feetech"}
 
 
-def run_scripted_session(arm: str, build: ArmBuild, calibration: str, scripts: Sequence[JointScript], out: Path,
-                         *, task: int = 0, stop_at: int | None = None, keep_failed: bool = True
+def run_scripted_session(arm: str, build: ArmBuild, calibration: str, scripts: Sequence[JointScript],
+                         out: Path, *, task: int = 0, stop_at: int | None = None, keep_failed: bool = True
                          ) -> TeleopSession:
     """Record one episode: the leader follows ``scripts`` on the simulated clock (t = steps · 50 ms); the
     operator presses Stop after ``stop_at`` steps (``None``: the episode ends by itself)."""

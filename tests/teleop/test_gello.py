@@ -51,8 +51,10 @@ def test_calibration_measures_signs_and_reads_true_angles(gello_cal: GelloCalibr
 
 @settings(max_examples=12, deadline=None)
 @given(st.lists(st.floats(0.02, 0.98), min_size=14, max_size=14))
-def test_any_power_on_position_gives_the_same_reading(gello_cal: GelloCalibration, fracs: list[float]) -> None:
-    """The multi-turn counter starts in whatever turn the power-on position is in; the reading must not care."""
+def test_any_power_on_position_gives_the_same_reading(gello_cal: GelloCalibration,
+                                                       fracs: list[float]) -> None:
+    """The multi-turn counter starts in whichever turn the power-on position is in; the reading must not
+    care."""
     lo, hi = LIMITS[:, 0], LIMITS[:, 1]
     power_on = lo + np.array(fracs[:7]) * (hi - lo)
     angles = lo + np.array(fracs[7:]) * (hi - lo)
@@ -133,9 +135,8 @@ def test_corrupted_replies_are_retried(gello_cal: GelloCalibration) -> None:
 def test_a_servo_that_only_sends_garbage_is_named(gello_cal: GelloCalibration) -> None:
     build = dataclasses.replace(GELLO_BUILD, corruption=Corruption(rate=1.0, ids=(6,)))
     scripts = [JointScript.constant(a) for a in HOME_Q] + [JointScript.constant(0.0)]
-    with build.bus(scripts, ManualClock()) as emu:
-        with pytest.raises(DeviceError, match=r"joint6 \(id 6\)"):
-            ServoBus("dynamixel", emu.port, gello_cal.motors)
+    with build.bus(scripts, ManualClock()) as emu, pytest.raises(DeviceError, match=r"joint6 \(id 6\)"):
+        ServoBus("dynamixel", emu.port, gello_cal.motors)
 
 
 def test_missing_port_is_a_device_error(tmp_path: Path) -> None:
@@ -157,12 +158,12 @@ LEGACY = Path(__file__).parents[2] / ".venv" / "extras" / "dynamixel38"
 
 
 @pytest.mark.skipif(not (LEGACY / "dynamixel_sdk").is_dir(),
-                    reason="dynamixel-sdk 3.8 (LeRobot's pin) not installed in .venv/extras (scripts/setup.sh --dev)")
+                    reason="dynamixel-sdk 3.8 (LeRobot's pin) not in .venv/extras (scripts/setup.sh --dev)")
 def test_lerobot_pinned_dynamixel_sdk_38(tmp_path: Path) -> None:
     """The same calibration and reading with the 3.8 line of dynamixel-sdk that LeRobot pins."""
     code = (
         "import dynamixel_sdk, numpy as np\n"
-        "assert dynamixel_sdk.__file__.startswith(%r), dynamixel_sdk.__file__\n"
+        f"assert dynamixel_sdk.__file__.startswith({str(LEGACY)!r}), dynamixel_sdk.__file__\n"
         "from tests.teleop.test_gello import _read_q\n"
         "from tests.teleop.conftest import GELLO_BUILD\n"
         "import teleop.bus; teleop.bus.DEFAULT_LATENCY_MS = 250.0\n"
@@ -173,12 +174,13 @@ def test_lerobot_pinned_dynamixel_sdk_38(tmp_path: Path) -> None:
         "from mgdata.sim.robot import HOME_Q\n"
         "clock = ManualClock()\n"
         "with GELLO_BUILD.bus(gello_calibration_scripts(HOME_Q), clock) as emu:\n"
-        "    bus = ServoBus('dynamixel', emu.port, gello_motors(True)); cal = calibrate_gello(bus, clock, HOME_Q)\n"
+        "    bus = ServoBus('dynamixel', emu.port, gello_motors(True))\n"
+        "    cal = calibrate_gello(bus, clock, HOME_Q)\n"
         "    bus.close()\n"
         "angles = HOME_Q + 0.3\n"
         "q = _read_q(cal, GELLO_BUILD, angles, HOME_Q - 0.2)\n"
         "print(float(np.max(np.abs(q - angles))))\n"
-    ) % str(LEGACY)
+    )
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(LEGACY), str(Path(__file__).parents[2])])}
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr

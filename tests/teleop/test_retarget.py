@@ -80,7 +80,8 @@ def test_clamps_outside_the_workspace() -> None:
 
 
 def test_step_limits_bound_a_jump() -> None:
-    """A sudden leader jump moves the target by at most max_step_m per step and each joint by max_joint_step."""
+    """A sudden leader jump moves the target by at most max_step_m per step and each joint by
+    max_joint_step."""
     config = RetargetConfig()
     rt = Retargeter(CAL, config, q0=HOME_Q)
     target_before = rt.target.pos.copy()

@@ -111,7 +111,8 @@ def _planner_demo() -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_gello_replays_a_demonstration_that_the_gate_keeps(gello_cal: GelloCalibration, tmp_path: Path) -> None:
+def test_gello_replays_a_demonstration_that_the_gate_keeps(gello_cal: GelloCalibration,
+                                                           tmp_path: Path) -> None:
     """A person's hand motion, scripted: the GELLO's joints follow a planner demonstration of jar task 0
     (lid closed, jar carried into the goal) on the session's clock, the trigger squeezed while the gripper is
     commanded closed. The session records it through the same monitor and gate, which keep it."""
@@ -124,7 +125,7 @@ def test_gello_replays_a_demonstration_that_the_gate_keeps(gello_cal: GelloCalib
         if actions[j, 7] != actions[j - 1, 7]:
             knots_t += [t[j] - 1e-6, t[j]]
             knots_a += [0.6 * actions[j - 1, 7], 0.6 * actions[j, 7]]
-    scripts.append(JointScript(knots_t + [t[-1]], knots_a + [0.6 * actions[-1, 7]]))
+    scripts.append(JointScript([*knots_t, t[-1]], [*knots_a, 0.6 * actions[-1, 7]]))
     cal_file = tmp_path / "gello.json"
     gello_cal.save(cal_file)
     out = tmp_path / "jar_teleop"

@@ -20,7 +20,7 @@ from teleop.so101.kinematics import SO101Kinematics
 TICK = 2 * np.pi / 4096
 FK = SO101Kinematics()
 # physical ranges, symmetric about the joint's zero (the model's "middle of the range" convention)
-HALF = np.minimum(-FK.lower, FK.upper).tolist() + [0.9]
+HALF = [*np.minimum(-FK.lower, FK.upper).tolist(), 0.9]
 LOWER = [-h + 0.02 for h in HALF]
 UPPER = [h - 0.02 for h in HALF]
 GRIPPER_ZERO = 0.8  # rad, the jaw joint's angle at the middle of its range
@@ -48,7 +48,7 @@ def _read(build: ArmBuild, cal: SO101Calibration, angles: np.ndarray) -> tuple[n
 
 
 @pytest.mark.parametrize("wrist_roll_at_middle", [0.0, 2.5, -2.6])
-def test_calibration_reads_true_angles_even_with_wrist_roll_far_from_centre(wrist_roll_at_middle: float) -> None:
+def test_reads_true_angles_even_with_wrist_roll_far_from_centre(wrist_roll_at_middle: float) -> None:
     """LeRobot centres each joint where the operator held it; a wrist_roll held 2.5 rad off centre then has a
     range that crosses the encoder wrap. Ours follows the sweep across the wrap and re-centres."""
     build = ArmBuild.so101(seed=5)
