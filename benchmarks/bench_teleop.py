@@ -96,7 +96,9 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
     scripts.append(JointScript([0, duration * 0.6, duration * 0.7], [0.0, 0.0, 0.6]))
     live = ManualClock()
     with build.bus(scripts, live) as emu:  # forked before this process is pinned: the device has its own core
-        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+        all_cores = os.sched_getaffinity(0)
+        # pin this thread; the reader and the session's threads created from here on inherit the one core
+        os.sched_setaffinity(0, {sorted(all_cores)[0]})
         mapper = mapper_for("gello", text, config)
         bus = ServoBus("dynamixel", emu.port, mapper.motors)
         reader = LeaderReader(bus, config.leader.reader_hz, stale_s=2.0)
@@ -112,27 +114,46 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
                 session.command("stop")
 
         job = SessionJob("gello", "jar", 0, tmp / "ds", keep_failed=True, episodes=1)
-        session = TeleopSession(job, mapper, text, reader, on_step=on_step)
-        view = OperatorView(session, "127.0.0.1", port)
-        session.on_status = view.update
+        ready, go = threading.Event(), threading.Event()
+        box: dict[str, object] = {}
+
+        def drive() -> None:
+            # the session (and its GL context) lives in this thread; the browser (playwright) in the main one
+            nonlocal session
+            session = TeleopSession(job, mapper, text, reader, on_step=on_step)
+            view = OperatorView(session, "127.0.0.1", port)
+            session.on_status = view.update
+            box["session"], box["view"] = session, view
+            ready.set()
+            go.wait()
+            session.command("record")
+            box["t0"] = time.perf_counter()
+            try:
+                session.run()
+            finally:
+                box["wall"] = time.perf_counter() - float(box["t0"])  # type: ignore[arg-type]
+                shot_ready.set()
+
+        worker = threading.Thread(target=drive)
+        worker.start()
+        ready.wait()
+        os.sched_setaffinity(0, all_cores)  # the browser stands for the operator's machine: not on that core
+        view: OperatorView = box["view"]  # type: ignore[assignment]
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True,
                                         args=["--no-sandbox", "--disable-gpu", "--use-gl=swiftshader"])
             page = browser.new_page(viewport={"width": 1400, "height": 900})
             page.goto(view.url)
-            page.wait_for_selector("#mg-monitor", timeout=60000)
+            page.wait_for_selector("#mg-monitor", timeout=120000)
             page.evaluate(OBSERVER)
-            runner = threading.Thread(target=session.run)
-            t_start = time.perf_counter()
-            session.command("record")
-            runner.start()
+            go.set()
             if screenshot is not None:
-                shot_ready.wait(timeout=600)
+                shot_ready.wait(timeout=1200)
                 time.sleep(0.5)
                 screenshot.parent.mkdir(parents=True, exist_ok=True)
                 page.screenshot(path=str(screenshot))
-            runner.join()
-            wall = time.perf_counter() - t_start
+            worker.join()
+            wall = float(box["wall"])  # type: ignore[arg-type]
             time.sleep(0.5)
             seen = page.evaluate("() => window.__mg")
             browser.close()
@@ -143,7 +164,7 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
     starts = np.array(session.step_times)
     sched = starts[0] + 0.05 * np.arange(len(starts))
     # lateness against a schedule that restarts after an overrun (as the loop does)
-    late = np.maximum(0.0, np.diff(starts) - 0.05) * 1000
+    late = np.maximum(0.0, np.diff(starts) - 0.05) * 1000 if len(starts) > 1 else np.zeros(1)
     lat = [(recv - sent) * 1000 for _step, sent, recv in seen if sent > 0]
     print(f"session loop: {len(starts)} ticks in {wall:.1f} s ({len(starts) / wall:.1f} Hz, target 20 Hz) "
           "on one core, "
