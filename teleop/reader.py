@@ -2,8 +2,9 @@
 latest reading for the 20 Hz control loop and logs every reading of the episode in progress (the raw leader
 stream, from which the episode can be re-simulated).
 
-A read error in the thread (a motor that stopped answering) is re-raised in the control loop by
-:meth:`LeaderReader.latest`, as is a reading older than ``stale_s``; the loop never runs on an old pose.
+A failed read in the thread (after the bus's own retries) is retried; when no reading has succeeded for
+``stale_s``, :meth:`LeaderReader.latest` raises in the control loop with the last error (naming the port and
+the motor). The loop never runs on an old pose.
 """
 
 from __future__ import annotations
@@ -32,7 +33,9 @@ class LeaderReader:
         self._latest: tuple[int, float, np.ndarray] | None = None
         self._log: list[tuple[float, np.ndarray]] | None = None
         self._log_base = 0
-        self._error: BaseException | None = None
+        self._error: BaseException | None = None  # the latest read error
+        self._fatal = False
+        self.failures = 0  # reads that failed after the bus's retries
         self._stop = threading.Event()
         self._t0 = time.monotonic()
         self._reads = 0
@@ -45,8 +48,13 @@ class LeaderReader:
         while not self._stop.is_set():
             try:
                 ticks = self.bus.read_positions()
-            except BaseException as err:  # re-raised in the control loop, which owns the error handling
+            except DeviceError as err:  # transient (a stalled host) or lasting: the staleness check decides
                 self._error = err
+                self.failures += 1
+                continue
+            except BaseException as err:  # a bug: re-raised in the control loop
+                self._error = err
+                self._fatal = True
                 return
             now = time.monotonic() - self._t0
             with self._lock:
@@ -68,7 +76,7 @@ class LeaderReader:
 
     def latest(self) -> tuple[int, np.ndarray]:
         """(index in the episode's log, or -1 when not logging; ticks) of the newest reading."""
-        if self._error is not None:
+        if self._fatal:
             raise DeviceError(f"leader on {self.bus.port}: {self._error}")
         deadline = time.monotonic() + self.stale_s
         while True:
@@ -77,10 +85,11 @@ class LeaderReader:
                 log_len = len(self._log) if self._log is not None else 0
             if latest is not None and time.monotonic() - self._t0 - latest[1] <= self.stale_s:
                 return (log_len - 1 if self._log is not None else -1), latest[2]
-            if self._error is not None:
+            if self._fatal:
                 raise DeviceError(f"leader on {self.bus.port}: {self._error}")
             if time.monotonic() > deadline:
-                raise DeviceError(f"leader on {self.bus.port}: no fresh reading for {self.stale_s} s")
+                why = f": {self._error}" if self._error is not None else ""
+                raise DeviceError(f"leader on {self.bus.port}: no fresh reading for {self.stale_s} s{why}")
             time.sleep(0.001)
 
     def start_log(self) -> None:
