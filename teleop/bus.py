@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import termios
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,6 +24,9 @@ import numpy as np
 
 from mgdata.errors import DeviceError
 from teleop.sdk import require
+
+_PORT_ERRORS = (OSError, termios.error)
+"""What pyserial raises when the adapter goes away (SerialException is an OSError; tcflush: termios')."""
 
 DEFAULT_LATENCY_MS = 16.0
 """The SDKs' allowance (ms) for the USB-serial adapter's latency, part of every reply timeout (16: FTDI's
@@ -100,7 +104,10 @@ class ServoBus:
         """After a failed transaction: wait out a late reply (a loaded host or a slow USB adapter can deliver
         it after the SDK's timeout), then drop it, so it cannot be taken for the answer to the retry."""
         time.sleep(self.drain_s)
-        self._port.clearPort()
+        try:
+            self._port.clearPort()
+        except _PORT_ERRORS as err:
+            raise DeviceError(f"serial port {self.port} failed: {err}") from None
 
     def _call(self, fn: Any, *args: Any) -> tuple:
         """An SDK transaction; an exception on a malformed reply (the SDKs index short packets) counts as a
@@ -109,6 +116,8 @@ class ServoBus:
             return fn(self._port, *args)
         except (IndexError, ValueError, TypeError):
             return (None, self._sdk.COMM_RX_CORRUPT, 0)
+        except _PORT_ERRORS as err:  # the adapter was unplugged
+            raise DeviceError(f"serial port {self.port} failed: {err}") from None
 
     def _where(self, m: Motor) -> str:
         return f"motor {m.name} (id {m.id}) on {self.port}"
@@ -168,6 +177,8 @@ class ServoBus:
                 result = self._group.txRxPacket()
             except (IndexError, ValueError, TypeError):
                 result = self._sdk.COMM_RX_CORRUPT
+            except _PORT_ERRORS as err:  # the adapter was unplugged
+                raise DeviceError(f"serial port {self.port} failed: {err}") from None
             addr = self._f.present_position
             if result == self._sdk.COMM_SUCCESS and all(self._group.isAvailable(m.id, addr, size)
                                                         for m in self.motors):

@@ -1,4 +1,5 @@
-"""EpisodeRunner: controller → recorder → gate, checked against quantities computed here from raw MuJoCo data."""
+"""EpisodeRunner: controller → recorder → gate, checked against quantities computed here from raw MuJoCo
+data."""
 
 from __future__ import annotations
 
