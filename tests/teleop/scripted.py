@@ -1,0 +1,46 @@
+"""A scripted teleop session: an emulated leader replays joint scripts on the session's simulated clock."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from teleop.bus import ServoBus
+from teleop.config import load_teleop_config
+from teleop.emulator.arms import ArmBuild, ManualClock
+from teleop.emulator.script import JointScript
+from teleop.mapping import mapper_for
+from teleop.reader import LeaderReader
+from teleop.session import SessionJob, TeleopSession
+
+FAMILY = {"gello": "dynamixel", "so101": "feetech"}
+
+
+def run_scripted_session(arm: str, build: ArmBuild, calibration: str, scripts: Sequence[JointScript],
+                         out: Path, *, task: int = 0, stop_at: int | None = None, keep_failed: bool = True
+                         ) -> TeleopSession:
+    """Record one episode: the leader follows ``scripts`` on the simulated clock (t = steps · 50 ms); the
+    operator presses Stop after ``stop_at`` steps (``None``: the episode ends by itself)."""
+    config = load_teleop_config()
+    clock = ManualClock()
+    with build.bus(scripts, clock) as emu:
+        mapper = mapper_for(arm, calibration, config)
+        bus = ServoBus(FAMILY[arm], emu.port, mapper.motors)
+        if arm == "so101":
+            mapper.cal.apply(bus)  # type: ignore[attr-defined]
+        reader = LeaderReader(bus, config.leader.reader_hz, stale_s=5.0)  # a loaded CI host stalls threads
+        session: TeleopSession | None = None
+
+        def on_step(k: int) -> None:
+            clock.t = k * 0.05
+            if stop_at is not None and k == stop_at and session is not None:
+                session.command("stop")
+
+        job = SessionJob(arm, "jar", task, out, keep_failed=keep_failed, episodes=1, autostart=True)
+        session = TeleopSession(job, mapper, calibration, reader, on_step=on_step)
+        try:
+            session.run()
+        finally:
+            reader.close()
+            bus.close()
+    return session
