@@ -45,7 +45,8 @@ class GraspCheckConfig:
 
 
 def check_placement(grasp: Grasp, cfg: GraspCheckConfig) -> tuple[tuple[float, float, float], float]:
-    """Where the check stands the object: position (m) and yaw (rad) turning the approach away from the robot."""
+    """Where the check stands the object: position (m), and yaw (rad) turning the approach away from the
+    robot."""
     approach = grasp.matrix()[:3, 2]
     yaw = -math.atan2(approach[1], approach[0]) if np.hypot(approach[0], approach[1]) > 1e-6 else 0.0
     return (cfg.place_x, 0.0, TABLE_TOP_Z), yaw

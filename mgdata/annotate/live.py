@@ -1,0 +1,245 @@
+"""The live checks: is a draft grasp pose reachable and clear, at the placements that matter?
+
+For each placement (the sim check's, then the recipe's; :mod:`mgdata.annotate.placements`) the object is
+stood there and five checks run with the generator's motion facade:
+
+* ``reach``: IK solutions for the pre-grasp pose (``standoff`` back along the approach, as the sim check) and
+  the grasp pose, every joint at least ``joint_margin`` inside its limits;
+* ``arm``: at the grasp pose the arm and hand touch nothing, the fingers may touch the object;
+* ``approach``: the pre-grasp pose is collision-free and so is the straight line from it to the grasp (the
+  fingers may touch the object); joints are interpolated and the TCP must stay within ``LINE_TOL`` of the
+  line, else the line is solved waypoint by waypoint;
+* ``lift``: the pose ``lift`` above the grasp is reachable with the object in the hand (object–table contact
+  allowed), joints inside the margin;
+* ``width`` (the same everywhere): the object material between the open finger pads is narrower than the
+  opening minus ``width_clearance``, and there is some (the fingers do not close on air).
+
+A check is green when it passes at every placement, amber at some, red at none; the verdict is the worst
+badge, and red too when no single placement passes everything. Results are deterministic: every solve starts
+from ``HOME_Q`` (wrist turned as the pose needs) with a fixed seed, so a pose gets the same verdict whatever
+was checked before.
+
+Example::
+
+    checker = LiveChecker(obj, recipe_placements("jar", "jar", cfg), cfg, GraspCheckConfig())
+    verdict = checker.check(Pose(pos, quat))      # pose of the TCP in the object frame
+    verdict.level, [b.reason for b in verdict.badges]
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mgdata.annotate.config import LiveConfig
+from mgdata.annotate.objectscene import INSTANCE, ObjectScene
+from mgdata.annotate.placements import Placement, sim_check_placement
+from mgdata.grasps.check import GraspCheckConfig
+from mgdata.grasps.db import Grasp, approach_hint
+from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.sim import robot
+
+CHECKS: tuple[str, ...] = ("reach", "arm", "approach", "lift", "width")
+LEVELS: tuple[str, ...] = ("green", "amber", "red")
+LINE_TOL = 0.003
+"""m a joint-interpolated approach may leave the straight line before it is solved waypoint by waypoint."""
+
+
+@dataclass(frozen=True)
+class Badge:
+    """One check's result over all placements: ``level`` green / amber / red and a one-line reason."""
+
+    name: str
+    level: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The live checks of one pose.
+
+    Attributes:
+        level: green (reachable and clear everywhere), amber (somewhere), red (nowhere, or too wide / empty).
+        badges: one per check, in :data:`CHECKS` order.
+        clear: per placement, whether every check passed there.
+        placements: the placements checked (the sim check's first).
+        seconds: compute time.
+    """
+
+    level: str
+    badges: tuple[Badge, ...]
+    clear: tuple[bool, ...]
+    placements: tuple[Placement, ...]
+    seconds: float
+
+    def badge(self, name: str) -> Badge:
+        return next(b for b in self.badges if b.name == name)
+
+
+def _worst(levels: list[str]) -> str:
+    return max(levels, key=LEVELS.index)
+
+
+class LiveChecker:
+    """Runs the live checks of TCP poses (object frame) on one object model."""
+
+    def __init__(self, obj: ObjectScene, placements: tuple[Placement, ...], cfg: LiveConfig,
+                 check: GraspCheckConfig) -> None:
+        self.obj, self.placements, self.cfg, self.check_cfg = obj, placements, cfg, check
+        planner = obj.planner
+        self._lower, self._upper = planner.lower, planner.upper
+        fingers = tuple((f, INSTANCE) for f in robot.FINGER_BODIES)
+        self._fingers = AllowedContacts(fingers)
+        turned = robot.HOME_Q.copy()
+        turned[6] -= np.pi
+        self._homes = (robot.HOME_Q, turned)
+        self._lifting = AllowedContacts(((robot.HAND_BODY, INSTANCE), (INSTANCE, "table")))
+
+    # --------------------------------------------------------------------------------------- public
+    def check(self, pose: Pose, stale: Callable[[], bool] = lambda: False) -> Verdict | None:
+        """The verdict for TCP pose ``pose`` in the object frame; None if ``stale()`` turned true meanwhile
+        (a newer pose is waiting, so this one's verdict would never be shown)."""
+        t0 = time.perf_counter()
+        grasp = Grasp("draft", tuple(pose.pos), tuple(pose.quat), approach_hint(pose.quat), "annotated")
+        placements = (sim_check_placement(grasp, self.check_cfg), *self.placements)
+        width = self._width(pose)
+        results: list[dict[str, str | None]] = []
+        for placement in placements:
+            if stale():
+                return None
+            results.append(self._at(placement, pose))
+        badges = []
+        for name in CHECKS[:-1]:
+            fails = [(p, r[name]) for p, r in zip(placements, results, strict=True) if r[name] is not None]
+            if not fails:
+                badges.append(Badge(name, "green", f"clear at all {len(placements)} placements"))
+            elif len(fails) < len(placements):
+                p, why = fails[0]
+                badges.append(Badge(name, "amber", f"fails at {len(fails)} of {len(placements)}: "
+                                    f"{p.describe()}: {why}"))
+            else:
+                badges.append(Badge(name, "red", f"fails at every placement; {placements[0].label}: "
+                                    f"{fails[0][1]}"))
+        badges.append(Badge("width", "green" if width[0] else "red", width[1]))
+        clear = tuple(all(v is None for v in r.values()) and width[0] for r in results)
+        level = _worst([b.level for b in badges])
+        if not any(clear):
+            level = "red"
+        return Verdict(level, tuple(badges), clear, placements, time.perf_counter() - t0)
+
+    # ---------------------------------------------------------------------------------------- checks
+    def _room(self, *qs: np.ndarray) -> str | None:
+        """None if every joint of every ``q`` keeps the margin, else which one does not."""
+        for q in qs:
+            room = np.minimum(q - self._lower, self._upper - q)
+            j = int(np.argmin(room))
+            if room[j] < self.cfg.joint_margin:
+                return (f"joint{j + 1} {max(room[j], 0.0):.2f} rad from its limit "
+                        f"(margin {self.cfg.joint_margin:g})")
+        return None
+
+    def _at(self, placement: Placement, pose: Pose) -> dict[str, str | None]:
+        """Failure reason per check at one placement (None: passed)."""
+        out: dict[str, str | None] = dict.fromkeys(CHECKS[:-1])
+        obj = self.obj
+        obj.place(placement)
+        world = placement.matrix()
+        world[2, 3] = obj.world_T_object[2, 3]
+        target = Pose.from_matrix(world @ pose.matrix())
+        approach = target.rotation()[:, 2]
+        pre = Pose(target.pos - approach * self.check_cfg.standoff, target.quat)
+        rng = np.random.default_rng(0)
+        q_pre = self._solve(pre, self._seed(pre), rng, "pre-grasp", out, "approach")
+        q = self._solve(target, self._seed(target) if q_pre is None else q_pre, rng, "grasp", out, "arm")
+        if q_pre is None or q is None:
+            for name in ("arm", "approach", "lift"):
+                out[name] = out[name] or "not checked: " + (out["reach"] or "the pre-grasp pose collides")
+            return out
+        out["reach"] = self._room(q_pre, q)
+        out["approach"] = self._approach(q_pre, q, pre, target)
+        out["lift"] = self._lift(q, target, world, rng)
+        return out
+
+    def _seed(self, pose: Pose) -> np.ndarray:
+        """``HOME_Q`` or ``HOME_Q`` with the wrist turned half a turn, whichever points the hand nearer
+        ``pose``: the local IK cannot cross the wrist's joint limit to undo a half-turn roll by itself."""
+        return min(self._homes, key=lambda q: self.obj.planner.fk(q).angle_to(pose))
+
+    def _solve(self, pose: Pose, seed: np.ndarray, rng: np.random.Generator, what: str,
+               out: dict[str, str | None], collision_check: str) -> np.ndarray | None:
+        """Collision-aware IK (fingers may touch the object); on failure, say whether the pose is out of
+        reach (``reach``) or only reachable in collision (``collision_check``)."""
+        planner, chk = self.obj.planner, self.obj.planner.checker
+        try:
+            q = planner.ik(pose, seed, rng)
+        except MotionFailure:
+            out["reach"] = out["reach"] or f"no IK solution for the {what} pose within the joint margin"
+            return None
+        chk.configure(self._fingers, None, 0.0)
+        if chk.valid(q):
+            return q
+        try:  # reachable, but this solution collides: look for another one
+            return planner.ik(pose, seed, rng, collision_free=True, allowed=self._fingers)
+        except MotionFailure:
+            out[collision_check] = f"every {what} solution found collides, e.g. {chk.explain(q)}"
+            return None
+
+    def _approach(self, q_pre: np.ndarray, q: np.ndarray, pre: Pose, target: Pose) -> str | None:
+        planner, chk = self.obj.planner, self.obj.planner.checker
+        chk.configure(self._fingers, None, 0.0)
+        n = max(2, int(np.ceil(self.check_cfg.standoff / self.cfg.approach_step)))
+        path = [q_pre + (q - q_pre) * (k / n) for k in range(1, n)]
+        off = max((_line_distance(planner.fk(p).pos, pre.pos, target.pos) for p in path), default=0.0)
+        if off > LINE_TOL:  # the joint interpolation bows away: solve the line waypoint by waypoint
+            path, prev = [], q_pre
+            rng = np.random.default_rng(1)
+            for k in range(1, n):
+                try:
+                    waypoint = Pose(pre.pos + (target.pos - pre.pos) * (k / n), target.quat)
+                    prev = planner.ik(waypoint, prev, rng)
+                except MotionFailure:
+                    return (f"the straight approach leaves the arm's reach "
+                            f"{k / n * self.check_cfg.standoff:.2f} m in")
+                path.append(prev)
+        for p in path:
+            if not chk.valid(p):
+                return f"the straight approach collides: {chk.explain(p)}"
+        return None
+
+    def _lift(self, q: np.ndarray, target: Pose, world_T_obj: np.ndarray, rng: np.random.Generator
+              ) -> str | None:
+        planner = self.obj.planner
+        held = Attachment(INSTANCE, np.linalg.inv(planner.fk(q).matrix()) @ world_T_obj)
+        up = Pose(target.pos + np.array([0.0, 0.0, self.check_cfg.lift]), target.quat)
+        try:
+            q_up = planner.ik(up, q, rng, collision_free=True, allowed=self._lifting, attached=held)
+        except MotionFailure as fail:
+            return f"lift pose {self.check_cfg.lift:.2f} m up: {fail.reason}"
+        return self._room(q_up)
+
+    # ----------------------------------------------------------------------------------------- width
+    def _width(self, pose: Pose) -> tuple[bool, str]:
+        pads = self.obj.pads
+        tcp_T_obj = np.linalg.inv(pose.matrix())
+        pts = self.obj.surface @ tcp_T_obj[:3, :3].T + tcp_T_obj[:3, 3]
+        inside = ((np.abs(pts[:, 0]) <= pads.half_x) & (pts[:, 2] >= pads.z_lo) & (pts[:, 2] <= pads.z_hi)
+                  & (np.abs(pts[:, 1]) <= pads.half_gap))
+        opening = 2.0 * pads.half_gap
+        if not inside.any():
+            return False, "nothing between the finger pads: the fingers would close on air"
+        ys = pts[inside, 1]
+        width = float(ys.max() - ys.min())
+        limit = opening - self.cfg.width_clearance
+        if width > limit:
+            return False, (f"{width * 100:.1f} cm of object between the pads; the hand opens "
+                           f"{opening * 100:.1f} cm ({self.cfg.width_clearance * 1000:.0f} mm to spare)")
+        return True, f"{width * 100:.1f} cm between the pads (opening {opening * 100:.1f} cm)"
+
+
+def _line_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    ab = b - a
+    t = float(np.clip((p - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * ab)))
