@@ -181,7 +181,8 @@ class Annotator:
         if self.mode.value != "guided":
             self._say("free mode: drag the gizmo (switch to guided mode to place by clicking)")
             return
-        hit = ray_hit(origin, direction, self.view.pick_mesh)
+        mesh = self.view.pick_mesh
+        hit = ray_hit(origin, direction, np.asarray(mesh.vertices), np.asarray(mesh.faces))
         if hit is None:
             return
         self.contact = hit
@@ -191,9 +192,10 @@ class Annotator:
     def _gizmo_moved(self, pose: Pose, phase: str) -> None:
         if self.mode.value != "free":
             return
-        self.set_pose(pose, "gizmo", move_gizmo=False)
-        if phase == "end":
+        if phase == "end":  # same pose as the last update: its checks are already running
             self._event("drag_end", self._seq, "")
+        if not _same(pose, self.pose):
+            self.set_pose(pose, "gizmo", move_gizmo=False)
 
     def set_pose(self, pose: Pose, source: str, move_gizmo: bool = True) -> None:
         """Make ``pose`` (object frame) the draft: show it, grey the ghost, queue its live checks."""

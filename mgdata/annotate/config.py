@@ -19,7 +19,7 @@ Vec3 = tuple[float, float, float]
 class LiveConfig:
     """The live checks (units: m, rad)."""
 
-    placements: int = 3  # representative placements drawn from the family's recipe (plus the sim check's)
+    placements: int = 2  # representative placements drawn from the family's recipe (plus the sim check's)
     joint_margin: float = 0.05  # rad kept from every joint limit by the IK solutions (pre-grasp, grasp, lift)
     ik_restarts: int = 2  # IK restarts per pose (the planner uses more; a verdict is due in ~100 ms)
     ik_iters: int = 40  # QP steps per IK attempt (an unreachable pose costs restarts × iters)

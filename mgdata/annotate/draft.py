@@ -47,10 +47,22 @@ def guided_pose(contact: np.ndarray, base: np.ndarray, yaw_deg: float, depth: fl
     return Pose.from_pos_mat(np.asarray(contact, dtype=float) + rot[:, 2] * depth, rot)
 
 
-def ray_hit(origin: np.ndarray, direction: np.ndarray, mesh) -> np.ndarray | None:
-    """The first point where a ray meets a trimesh (object frame), or None."""
-    locations, _, _ = mesh.ray.intersects_location([origin], [direction], multiple_hits=True)
-    if len(locations) == 0:
+def ray_hit(origin: np.ndarray, direction: np.ndarray, vertices: np.ndarray, faces: np.ndarray
+            ) -> np.ndarray | None:
+    """The nearest point where a ray meets a triangle mesh (Möller–Trumbore over all triangles), or None."""
+    o, d = np.asarray(origin, float), np.asarray(direction, float)
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    e1, e2 = b - a, c - a
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    ok = np.abs(det) > 1e-12
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    t_vec = o - a
+    u = np.einsum("ij,ij->i", t_vec, p) * inv
+    q = np.cross(t_vec, e1)
+    v = (q @ d) * inv
+    t = np.einsum("ij,ij->i", e2, q) * inv
+    hit = ok & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > 0.0)
+    if not hit.any():
         return None
-    d = (locations - origin) @ np.asarray(direction)
-    return locations[int(np.argmin(np.where(d >= 0, d, np.inf)))]
+    return o + d * float(t[hit].min())

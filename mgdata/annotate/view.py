@@ -43,7 +43,7 @@ class View:
         self._hand = scene.add_frame("/hand", show_axes=False)
         self._hand_parts: list[viser.MeshHandle] = []
         self._marker = scene.add_icosphere("/contact", radius=0.004, color=(30, 30, 200), visible=False)
-        self.gizmo = scene.add_transform_controls("/gizmo", scale=0.12, visible=False)
+        self.gizmo = scene.add_transform_controls("/gizmo", scale=0.15, depth_test=False, visible=False)
         self.gizmo.on_update(self._gizmo_event)
         self._ignore_gizmo = False
 
@@ -63,15 +63,16 @@ class View:
             self._hand_parts.append(self.server.scene.add_mesh_simple(
                 f"/hand/part_{i}", np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32),
                 color=GHOST["pending"], opacity=GHOST_OPACITY))
-        top = float(max(m.bounds[1][2] for m, _ in obj.visual))
+        size = float(np.max(self.pick_mesh.extents))
         cam = self.server.initial_camera
-        cam.look_at = (0.0, 0.0, top / 2.0)
-        cam.position = (0.30 + top, -0.30 - top, 0.18 + top)
+        cam.look_at = (0.0, 0.0, size / 2.0)
+        cam.position = (0.15 + 1.2 * size, -0.15 - 1.2 * size, 0.12 + 1.5 * size)
 
     def _click(self, event: viser.SceneNodePointerEvent) -> None:
         self._on_click(np.asarray(event.ray_origin, float), np.asarray(event.ray_direction, float))
 
-    def _gizmo_event(self, event: viser.TransformControlsEvent) -> None:
+    async def _gizmo_event(self, event: viser.TransformControlsEvent) -> None:
+        # async: viser runs it on the event loop in message order (thread-pool callbacks may reorder)
         if self._ignore_gizmo:
             return
         g = event.target
