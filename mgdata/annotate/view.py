@@ -35,6 +35,11 @@ class View:
         self._on_click, self._on_gizmo = on_click, on_gizmo
         scene = server.scene
         scene.set_up_direction("+z")
+        # No HDRI environment and no shadow maps: with software WebGL (headless Chromium, remote desktops)
+        # their first render blocks the page for many seconds; two lights look the same for CAD-like meshes.
+        scene.configure_environment_map(hdri=None)
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
+        scene.add_light_hemisphere("/fill", intensity=1.2)
         scene.add_grid("/grid", width=0.4, height=0.4, cell_size=0.02, section_size=0.1,
                        position=(0.0, 0.0, -1e-4))
         scene.add_frame("/axes", axes_length=0.08, axes_radius=0.002)
