@@ -89,8 +89,8 @@ class Annotator:
             control.on_update(lambda _: self._guided_changed())
         self.badges = gui.add_html("")
         self.sim_line = gui.add_markdown("")
-        self.save_button = gui.add_button("save grasp (S)")
-        self.delete_button = gui.add_button("delete last (Z)")
+        self.save_button = gui.add_button("save grasp (Enter)")
+        self.delete_button = gui.add_button("delete last (Backspace)")
         self.sim_button = gui.add_button("check in sim (C)")
         self.export_button = gui.add_button("export .npz")
         self.status = gui.add_markdown("")
@@ -98,7 +98,8 @@ class Annotator:
         self.delete_button.on_click(lambda _: self.delete_last())
         self.sim_button.on_click(lambda _: self.check_in_sim())
         self.export_button.on_click(lambda _: self.export())
-        hotkeys = (("save grasp", "S", self.save), ("delete last grasp", "Z", self.delete_last),
+        # not W A S D Q E or the arrows: viser's camera controls move the view with those
+        hotkeys = (("save grasp", "enter", self.save), ("delete last grasp", "backspace", self.delete_last),
                    ("check in sim", "C", self.check_in_sim), ("next object", "N", lambda: self._step(1)),
                    ("previous object", "P", lambda: self._step(-1)))
         for label, key, action in hotkeys:
@@ -303,7 +304,7 @@ def _badges_html(v: Verdict) -> str:
                     f'style="display:inline-block;min-width:64px;padding:1px 6px;border-radius:8px;'
                     f'background:rgb({r},{g},{bl});color:white;font-weight:600;text-align:center">'
                     f'{b.name}</span> '
-                    f'<span style="font-size:0.85em">{html.escape(b.reason)}</span></div>')
+                    f'<span style="font-size:0.78em;line-height:1.2">{html.escape(b.reason)}</span></div>')
     r, g, bl = GHOST[v.level]
     head = (f'<div data-verdict="{v.level}" style="font-weight:700;color:rgb({r},{g},{bl})">live check: '
             f'{v.level} ({sum(v.clear)}/{len(v.clear)} placements clear, {v.seconds * 1000:.0f} ms)</div>')

@@ -24,7 +24,7 @@ def register(app: typer.Typer) -> None:
         directory: Annotated[Path | None, typer.Option("--dir", help="Grasp DB folder (default: the "
                                                        "project's grasps/).")] = None,
     ) -> None:
-        """Open the grasp annotator in the browser (guided and free modes, live checks, save with S).
+        """Open the grasp annotator in the browser (guided and free modes, live checks, save with Enter).
 
         Example: mgdata annotate --family jar --category jar --port 8080
         """

@@ -71,7 +71,8 @@ class View:
         size = float(np.max(self.pick_mesh.extents))
         cam = self.server.initial_camera
         cam.look_at = (0.0, 0.0, size / 2.0)
-        cam.position = (0.15 + 1.2 * size, -0.15 - 1.2 * size, 0.12 + 1.5 * size)
+        dist = 0.22 + 1.2 * size  # m: the hand (~0.2 m) and the object both in view
+        cam.position = (0.62 * dist, -0.62 * dist, size / 2.0 + 0.48 * dist)
 
     def _click(self, event: viser.SceneNodePointerEvent) -> None:
         self._on_click(np.asarray(event.ray_origin, float), np.asarray(event.ray_direction, float))

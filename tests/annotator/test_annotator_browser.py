@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from annotator_helpers import START, free_port, wait_for
+from annotator_helpers import START, free_port, project, wait_for
 
 from mgdata.annotate.app import Annotator
 from mgdata.annotate.catalog import Catalog
@@ -19,9 +19,14 @@ from mgdata.annotate.store import GraspStore
 from mgdata.grasps.db import GraspDB
 from mgdata.sim.assets import get_model
 
-CANVAS_CENTRE = (640, 400)
-JAR_BODY = (640, 440)  # below the lid, left of the hand's fingers: the jar's glass wall
-GIZMO_Z_ARROW = (640, 478)  # the free-mode gizmo's blue (approach) arrow near its tip
+VIEWPORT = (1280, 800)
+
+
+def _jar_wall(app: Annotator) -> tuple[float, float]:
+    """Pixel of the jar's wall half-way up, on the side facing the camera (+X, −Y)."""
+    geo = get_model(START).geometry
+    r = float(geo["outer_radius"])
+    return project(app, (r * np.cos(-np.pi / 4), r * np.sin(-np.pi / 4), 0.45 * geo["height"]), VIEWPORT)
 
 
 def _events(app: Annotator, kind: str, after: float) -> list[tuple[str, float, int, str]]:
@@ -40,7 +45,7 @@ def _select(page, label: str, option: str) -> None:
 def test_click_on_the_mesh_sets_the_contact_point_and_draft(app: Annotator, page) -> None:
     before = app.pose
     t0 = time.monotonic()
-    page.mouse.click(*JAR_BODY)
+    page.mouse.click(*_jar_wall(app))
     wait_for(lambda: _events(app, "pose", t0), what="a pose from the click")
     contact = np.asarray(app.contact)
     geo = get_model(START).geometry  # the jar's wall from the asset library's own parameters
@@ -74,11 +79,14 @@ def test_gizmo_drag_updates_the_verdict_within_150_ms(app: Annotator, page) -> N
     z0 = float(app.pose.pos[2])
     shown = page.locator("[data-verdict]").inner_text()
     t0 = time.monotonic()
-    x, y = GIZMO_Z_ARROW
+    # grab the gizmo's approach (blue, +Z) arrow part-way along and pull it back towards the gizmo's centre
+    rot, origin = app.pose.rotation(), app.pose.pos
+    x, y = project(app, origin + rot[:, 2] * 0.13, VIEWPORT)  # the arrow head
+    x1, y1 = project(app, origin + rot[:, 2] * 0.08, VIEWPORT)
     page.mouse.move(x, y)
     page.mouse.down()
     for k in range(1, 11):
-        page.mouse.move(x, y - 4 * k)
+        page.mouse.move(x + (x1 - x) * k / 10, y + (y1 - y) * k / 10)
         time.sleep(0.03)
     page.mouse.up()
     end = wait_for(lambda: _events(app, "drag_end", t0), what="the drag's end")[-1]
@@ -96,9 +104,9 @@ def test_gizmo_drag_updates_the_verdict_within_150_ms(app: Annotator, page) -> N
 
 
 def test_hotkey_save_reload_resume_and_delete_last(app: Annotator, page, grasp_dir) -> None:
-    page.mouse.click(*JAR_BODY)
+    page.mouse.click(*_jar_wall(app))
     t0 = time.monotonic()
-    page.keyboard.press("s")
+    page.keyboard.press("Enter")
     wait_for(lambda: _events(app, "saved", t0), what="the save")
     saved = GraspDB.load_dir(grasp_dir).grasps(START)
     assert len(saved) == 1 and saved[0].source == "annotated"
@@ -118,7 +126,7 @@ def test_hotkey_save_reload_resume_and_delete_last(app: Annotator, page, grasp_d
         again.close()
 
     t1 = time.monotonic()
-    page.get_by_role("button", name="delete last (Z)").click()
+    page.get_by_role("button", name="delete last (Backspace)").click()
     wait_for(lambda: _events(app, "deleted", t1), what="the delete")
     assert GraspDB.load_dir(grasp_dir).grasps(START) == ()
     page.get_by_text("4/16, 0 saved").wait_for(timeout=5_000)
