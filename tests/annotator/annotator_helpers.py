@@ -37,7 +37,7 @@ def wait_for(predicate, timeout: float = 10.0, what: str = "condition"):
     pytest.fail(f"timed out after {timeout} s waiting for {what}")
 
 
-def project(app, point, size: tuple[int, int]) -> tuple[float, float]:  # noqa: ANN001
+def project(app, point, size: tuple[int, int]) -> tuple[float, float]:
     """Pixel (x, y) of a world point in the connected browser's view, from the camera the client reports
     (position, look-at, up, vertical field of view); ``size`` is the page's viewport in pixels."""
     cam = next(iter(app.server.get_clients().values())).camera
