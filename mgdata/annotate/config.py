@@ -23,8 +23,11 @@ class LiveConfig:
     joint_margin: float = 0.05  # rad kept from every joint limit by the IK solutions (pre-grasp, grasp, lift)
     ik_restarts: int = 2  # IK restarts per pose (the planner uses more; a verdict is due in ~100 ms)
     ik_iters: int = 40  # QP steps per IK attempt (an unreachable pose costs restarts × iters)
+    deep_restarts: int = 12  # restarts of the second, thorough IK pass where the quick one fails
     approach_step: float = 0.01  # m between checked poses on the straight approach
     width_clearance: float = 0.004  # m of finger opening to spare around the grasped width
+    min_grip_depth: float = 0.006  # m of object the pads must cover along the approach (they are 17 mm)
+    finger_penetration: float = 0.002  # m the open fingers may cut into the object (grasp pose, approach)
     default_x: float = 0.50  # m: the documented default placement when a family has no recipe placements
     default_y: Vec3 = (0.0, -0.12, 0.12)  # m, one default placement per value
 

@@ -3,16 +3,19 @@
 For each placement (the sim check's, then the recipe's; :mod:`mgdata.annotate.placements`) the object is
 stood there and five checks run with the generator's motion facade:
 
-* ``reach``: IK solutions for the pre-grasp pose (``standoff`` back along the approach, as the sim check) and
-  the grasp pose, every joint at least ``joint_margin`` inside its limits;
-* ``arm``: at the grasp pose the arm and hand touch nothing, the fingers may touch the object;
+* ``reach``: IK solutions for the pre-grasp pose (``standoff`` back along the approach, as the sim check)
+  and the grasp pose, every joint at least ``joint_margin`` inside its limits: a quick pass, and at the
+  sim check's placement also a thorough one with the planner's restarts, as ``mgdata grasps validate``;
+* ``arm``: at the grasp pose the arm and hand touch nothing; the open fingers may touch the object but
+  not cut more than ``finger_penetration`` into it (that hand would land on the object, not around it);
 * ``approach``: the pre-grasp pose is collision-free and so is the straight line from it to the grasp (the
   fingers may touch the object); joints are interpolated and the TCP must stay within ``LINE_TOL`` of the
   line, else the line is solved waypoint by waypoint;
 * ``lift``: the pose ``lift`` above the grasp is reachable with the object in the hand (object–table contact
   allowed), joints inside the margin;
 * ``width`` (the same everywhere): the object material between the open finger pads is narrower than the
-  opening minus ``width_clearance``, and there is some (the fingers do not close on air).
+  opening minus ``width_clearance``, and reaches at least ``min_grip_depth`` along the approach (the
+  fingers neither close on air nor pinch an edge).
 
 A check is green when it passes at every placement, amber at some, red at none; the verdict is the worst
 badge, and red too when no single placement passes everything. Results are deterministic: every solve starts
@@ -35,11 +38,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.annotate.config import LiveConfig
+from mgdata.annotate.meshes import body_subtree_geoms
 from mgdata.annotate.objectscene import INSTANCE, ObjectScene
 from mgdata.annotate.placements import Placement, sim_check_placement
 from mgdata.grasps.check import GraspCheckConfig
 from mgdata.grasps.db import Grasp, approach_hint
-from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose
 from mgdata.sim import robot
 
 CHECKS: tuple[str, ...] = ("reach", "arm", "approach", "lift", "width")
@@ -93,6 +97,12 @@ class LiveChecker:
         self._lower, self._upper = planner.lower, planner.upper
         fingers = tuple((f, INSTANCE) for f in robot.FINGER_BODIES)
         self._fingers = AllowedContacts(fingers)
+        m = obj.scene.model
+        fingers = np.concatenate([body_subtree_geoms(m, m.body(b).id) for b in robot.FINGER_BODIES])
+        self._finger_geoms = np.zeros(m.ngeom, dtype=bool)
+        self._finger_geoms[fingers] = True
+        self._object_geoms = np.zeros(m.ngeom, dtype=bool)
+        self._object_geoms[obj.scene.object_geom_ids(INSTANCE)] = True
         turned = robot.HOME_Q.copy()
         turned[6] -= np.pi
         self._homes = (robot.HOME_Q, turned)
@@ -107,10 +117,10 @@ class LiveChecker:
         placements = (sim_check_placement(grasp, self.check_cfg), *self.placements)
         width = self._width(pose)
         results: list[dict[str, str | None]] = []
-        for placement in placements:
+        for i, placement in enumerate(placements):
             if stale():
                 return None
-            results.append(self._at(placement, pose))
+            results.append(self._at(placement, pose, thorough=i == 0))
         badges = []
         for name in CHECKS[:-1]:
             fails = [(p, r[name]) for p, r in zip(placements, results, strict=True) if r[name] is not None]
@@ -141,8 +151,9 @@ class LiveChecker:
                         f"(margin {self.cfg.joint_margin:g})")
         return None
 
-    def _at(self, placement: Placement, pose: Pose) -> dict[str, str | None]:
-        """Failure reason per check at one placement (None: passed)."""
+    def _at(self, placement: Placement, pose: Pose, thorough: bool) -> dict[str, str | None]:
+        """Failure reason per check at one placement (None: passed); ``thorough``: IK falls back to the
+        deep pass (the sim check's placement, whose verdict predicts ``mgdata grasps validate``)."""
         out: dict[str, str | None] = dict.fromkeys(CHECKS[:-1])
         obj = self.obj
         obj.place(placement)
@@ -152,15 +163,16 @@ class LiveChecker:
         approach = target.rotation()[:, 2]
         pre = Pose(target.pos - approach * self.check_cfg.standoff, target.quat)
         rng = np.random.default_rng(0)
-        q_pre = self._solve(pre, self._seed(pre), rng, "pre-grasp", out, "approach")
-        q = self._solve(target, self._seed(target) if q_pre is None else q_pre, rng, "grasp", out, "arm")
+        q_pre = self._solve(pre, self._seed(pre), rng, "pre-grasp", out, "approach", thorough)
+        q = None if q_pre is None else self._solve(target, q_pre, rng, "grasp", out, "arm", thorough)
         if q_pre is None or q is None:
             for name in ("arm", "approach", "lift"):
                 out[name] = out[name] or "not checked: " + (out["reach"] or "the pre-grasp pose collides")
             return out
         out["reach"] = self._room(q_pre, q)
+        out["arm"] = self._clear(q)
         out["approach"] = self._approach(q_pre, q, pre, target)
-        out["lift"] = self._lift(q, target, world, rng)
+        out["lift"] = self._lift(obj.deep if thorough else obj.planner, q, target, world, rng)
         return out
 
     def _seed(self, pose: Pose) -> np.ndarray:
@@ -169,21 +181,29 @@ class LiveChecker:
         return min(self._homes, key=lambda q: self.obj.planner.fk(q).angle_to(pose))
 
     def _solve(self, pose: Pose, seed: np.ndarray, rng: np.random.Generator, what: str,
-               out: dict[str, str | None], collision_check: str) -> np.ndarray | None:
-        """Collision-aware IK (fingers may touch the object); on failure, say whether the pose is out of
-        reach (``reach``) or only reachable in collision (``collision_check``)."""
-        planner, chk = self.obj.planner, self.obj.planner.checker
-        try:
-            q = planner.ik(pose, seed, rng)
-        except MotionFailure:
+               out: dict[str, str | None], collision_check: str, thorough: bool) -> np.ndarray | None:
+        """IK with the fingers allowed to touch the object: the quick pass, then (``thorough``) the deep
+        pass where it fails. On failure, say whether the pose is out of reach (``reach``) or only reachable
+        in collision (``collision_check``)."""
+        quick, chk = self.obj.planner, self.obj.planner.checker
+        deep = self.obj.deep if thorough else quick
+        q = None
+        for planner in (quick, deep) if thorough else (quick,):
+            try:
+                q = planner.ik(pose, seed, rng)
+                break
+            except MotionFailure:
+                continue
+        if q is None:
             out["reach"] = out["reach"] or f"no IK solution for the {what} pose within the joint margin"
             return None
         chk.configure(self._fingers, None, 0.0)
         if chk.valid(q):
             return q
-        try:  # reachable, but this solution collides: look for another one
-            return planner.ik(pose, seed, rng, collision_free=True, allowed=self._fingers)
+        try:  # reachable, but this solution collides: search thoroughly for one that does not
+            return deep.ik(pose, seed, rng, collision_free=True, allowed=self._fingers)
         except MotionFailure:
+            chk.configure(self._fingers, None, 0.0)
             out[collision_check] = f"every {what} solution found collides, e.g. {chk.explain(q)}"
             return None
 
@@ -205,13 +225,31 @@ class LiveChecker:
                             f"{k / n * self.check_cfg.standoff:.2f} m in")
                 path.append(prev)
         for p in path:
-            if not chk.valid(p):
-                return f"the straight approach collides: {chk.explain(p)}"
+            why = self._clear(p)
+            if why is not None:
+                return f"the straight approach collides: {why}"
         return None
 
-    def _lift(self, q: np.ndarray, target: Pose, world_T_obj: np.ndarray, rng: np.random.Generator
-              ) -> str | None:
-        planner = self.obj.planner
+    def _clear(self, q: np.ndarray) -> str | None:
+        """None if ``q`` is collision-free with the fingers at most touching the object (open fingers go
+        around it; pads cut deeper than ``finger_penetration`` into it mean the hand lands on it)."""
+        chk = self.obj.planner.checker
+        chk.configure(self._fingers, None, 0.0)
+        if not chk.valid(q):
+            return chk.explain(q)
+        con = chk.data.contact[: chk.data.ncon]
+        if len(con):
+            g1, g2 = con.geom[:, 0], con.geom[:, 1]
+            fo = self._finger_geoms, self._object_geoms
+            pair = (fo[0][g1] & fo[1][g2]) | (fo[0][g2] & fo[1][g1])
+            deep = pair & (con.dist < -self.cfg.finger_penetration)
+            if deep.any():
+                return (f"a finger cuts {-float(con.dist[deep].min()) * 1000:.0f} mm into the object "
+                        f"(limit {self.cfg.finger_penetration * 1000:.0f} mm)")
+        return None
+
+    def _lift(self, planner: MotionPlanner, q: np.ndarray, target: Pose, world_T_obj: np.ndarray,
+              rng: np.random.Generator) -> str | None:
         held = Attachment(INSTANCE, np.linalg.inv(planner.fk(q).matrix()) @ world_T_obj)
         up = Pose(target.pos + np.array([0.0, 0.0, self.check_cfg.lift]), target.quat)
         try:
@@ -230,8 +268,11 @@ class LiveChecker:
         opening = 2.0 * pads.half_gap
         if not inside.any():
             return False, "nothing between the finger pads: the fingers would close on air"
-        ys = pts[inside, 1]
-        width = float(ys.max() - ys.min())
+        ys, zs = pts[inside, 1], pts[inside, 2]
+        width, depth = float(ys.max() - ys.min()), float(zs.max() - zs.min())
+        if depth < self.cfg.min_grip_depth:
+            return False, (f"the pads would hold only {depth * 1000:.0f} mm of the object along the approach "
+                           f"(at least {self.cfg.min_grip_depth * 1000:.0f} mm)")
         limit = opening - self.cfg.width_clearance
         if width > limit:
             return False, (f"{width * 100:.1f} cm of object between the pads; the hand opens "

@@ -57,19 +57,23 @@ class ObjectScene:
     Attributes:
         key: the model's name (``category/model``).
         scene: the built scene (object instance ``"object"``).
-        planner: the motion facade of this scene (IK restarts as the live config says).
+        planner: the motion facade of this scene (quick IK: the live config's restarts and iterations).
+        deep: the same with the thorough IK pass (``deep_restarts``), for poses the quick pass fails on.
         visual: the object's visible meshes in its own frame, with colours.
         surface: points (n, 3) on the object's colliding surfaces, in its own frame.
         hand: the Panda hand's visible meshes (hand and open fingers) in the TCP frame, with colours.
         pads: the fingers' closing space in the TCP frame.
     """
 
-    def __init__(self, key: str, scene: Scene, motion: MotionConfig) -> None:
+    def __init__(self, key: str, scene: Scene, motion: MotionConfig, deep: MotionConfig | None = None
+                 ) -> None:
         self.key = key
         self.scene = scene
         m, d = scene.model, scene.data
         self.planner = MotionPlanner(m, motion)
         self.planner.sync(d)
+        self.deep = MotionPlanner(m, deep or motion)
+        self.deep.sync(d)
         body = scene.object_body(INSTANCE)
         world_T_obj = np.eye(4)
         world_T_obj[:3, :3] = d.xmat[body].reshape(3, 3)
@@ -99,12 +103,15 @@ class ObjectScene:
                         safety=SafetySpec("annotate", (), ()))
         scene = build_scene(task)
         scene.reset()
-        motion = load_motion_config()
+        motion = deep = load_motion_config()
         if live is not None:
-            ik = dataclasses.replace(motion.ik, restarts=live.ik_restarts, max_iters=live.ik_iters,
-                                     limit_margin=live.joint_margin)
-            motion = dataclasses.replace(motion, ik=ik)
-        return cls(key, scene, motion)
+            quick = dataclasses.replace(motion.ik, restarts=live.ik_restarts, max_iters=live.ik_iters,
+                                        limit_margin=live.joint_margin)
+            thorough = dataclasses.replace(motion.ik, restarts=live.deep_restarts,
+                                           limit_margin=live.joint_margin)
+            motion = dataclasses.replace(motion, ik=quick)
+            deep = dataclasses.replace(deep, ik=thorough)
+        return cls(key, scene, motion, deep)
 
     def _pads(self, tcp_T_world: np.ndarray) -> PadBox:
         """The closing space from the finger pads' collision boxes (scene at HOME, fingers open)."""
@@ -123,7 +130,6 @@ class ObjectScene:
 
     def place(self, placement: Placement) -> None:
         """Stand the object at ``placement`` in the planner's copy (the live scene is not touched)."""
-        chk = self.planner.checker
         T = placement.matrix()
         T[2, 3] = self.world_T_object[2, 3]  # keep the settled height
         quat = np.empty(4)
@@ -134,6 +140,8 @@ class ObjectScene:
             scratch.qpos[self._free_adr:self._free_adr + 3] = T[:3, 3]
             scratch.qpos[self._free_adr + 3:self._free_adr + 7] = quat
         else:  # a welded object (cabinet): move its body in the checker's own model copy
-            chk.model.body_pos[self._body] = T[:3, 3]
-            chk.model.body_quat[self._body] = quat
+            for planner in (self.planner, self.deep):
+                planner.checker.model.body_pos[self._body] = T[:3, 3]
+                planner.checker.model.body_quat[self._body] = quat
         self.planner.sync(scratch)
+        self.deep.sync(scratch)
