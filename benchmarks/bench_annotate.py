@@ -74,7 +74,7 @@ def main() -> None:
             g = cands[int(rng.integers(len(cands)))]
             if rng.random() >= args.unperturbed:
                 g = _perturb(g, rng, args.pos_sigma, args.rot_sigma, k)
-            verdict = checker.check(Pose(np.asarray(g.pos), np.asarray(g.quat)))
+            verdict = checker.check(Pose(np.asarray(g.pos), np.asarray(g.quat)), warm=False)
             assert verdict is not None
             times.append(verdict.seconds)
             status, detail = check_grasp(key, g, check_cfg.check)

@@ -39,5 +39,6 @@ def register(app: typer.Typer) -> None:
         if not 0 < port < 65536:
             raise AssetError(f"--port {port}: expected 1 … 65535")
         session = Annotator(catalog, GraspStore(directory or grasps_dir()), host=host, port=port, start=obj)
-        typer.echo(f"annotating {len(catalog.keys)} objects at http://{host}:{port}/ (Ctrl-C to stop)")
+        actual = session.server.get_port()  # viser moves on to the next free port if this one is taken
+        typer.echo(f"annotating {len(catalog.keys)} objects at http://{host}:{actual}/ (Ctrl-C to stop)")
         session.serve_forever()

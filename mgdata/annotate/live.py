@@ -18,9 +18,9 @@ stood there and five checks run with the generator's motion facade:
   fingers neither close on air nor pinch an edge).
 
 A check is green when it passes at every placement, amber at some, red at none; the verdict is the worst
-badge, and red too when no single placement passes everything. Results are deterministic: every solve starts
-from ``HOME_Q`` (wrist turned as the pose needs) with a fixed seed, so a pose gets the same verdict whatever
-was checked before.
+badge, and red too when no single placement passes everything. A cold check (``warm=False``) is
+deterministic: every solve starts from ``HOME_Q`` (wrist turned as the pose needs) with a fixed seed. While
+dragging, the previous pose's solutions are tried first (see :meth:`LiveChecker.check`).
 
 Example::
 
@@ -48,6 +48,8 @@ from mgdata.sim import robot
 
 CHECKS: tuple[str, ...] = ("reach", "arm", "approach", "lift", "width")
 LEVELS: tuple[str, ...] = ("green", "amber", "red")
+WARM_DIST, WARM_ANGLE = 0.05, 0.5
+"""m, rad: a pose this near the previous one starts its IK from the previous solutions (a drag)."""
 LINE_TOL = 0.003
 """m a joint-interpolated approach may leave the straight line before it is solved waypoint by waypoint."""
 
@@ -106,13 +108,24 @@ class LiveChecker:
         turned = robot.HOME_Q.copy()
         turned[6] -= np.pi
         self._homes = (robot.HOME_Q, turned)
+        self._last: tuple[Pose, list[np.ndarray | None]] | None = None
         self._lifting = AllowedContacts(((robot.HAND_BODY, INSTANCE), (INSTANCE, "table")))
 
     # --------------------------------------------------------------------------------------- public
-    def check(self, pose: Pose, stale: Callable[[], bool] = lambda: False) -> Verdict | None:
+    def check(self, pose: Pose, stale: Callable[[], bool] = lambda: False, warm: bool = True
+              ) -> Verdict | None:
         """The verdict for TCP pose ``pose`` in the object frame; None if ``stale()`` turned true meanwhile
-        (a newer pose is waiting, so this one's verdict would never be shown)."""
+        (a newer pose is waiting, so this one's verdict would never be shown).
+
+        ``warm``: when the previous pose checked was near this one (a drag), its pre-grasp solutions are
+        tried first as IK seeds; a solution found that way is a real witness of reachability, and where
+        none is found the seeded search from ``HOME_Q`` decides as in a cold check.
+        """
         t0 = time.perf_counter()
+        last = self._last
+        near = (warm and last is not None and float(np.linalg.norm(last[0].pos - pose.pos)) < WARM_DIST
+                and last[0].angle_to(pose) < WARM_ANGLE)
+        witnesses: list[np.ndarray | None] = []
         grasp = Grasp("draft", tuple(pose.pos), tuple(pose.quat), approach_hint(pose.quat), "annotated")
         placements = (sim_check_placement(grasp, self.check_cfg), *self.placements)
         width = self._width(pose)
@@ -120,7 +133,11 @@ class LiveChecker:
         for i, placement in enumerate(placements):
             if stale():
                 return None
-            results.append(self._at(placement, pose, thorough=i == 0))
+            hint = last[1][i] if near and last is not None and i < len(last[1]) else None
+            out, q_pre = self._at(placement, pose, thorough=i == 0, hint=hint)
+            results.append(out)
+            witnesses.append(q_pre)
+        self._last = (pose, witnesses)
         badges = []
         for name in CHECKS[:-1]:
             fails = [(p, r[name]) for p, r in zip(placements, results, strict=True) if r[name] is not None]
@@ -151,7 +168,8 @@ class LiveChecker:
                         f"(margin {self.cfg.joint_margin:g})")
         return None
 
-    def _at(self, placement: Placement, pose: Pose, thorough: bool) -> dict[str, str | None]:
+    def _at(self, placement: Placement, pose: Pose, thorough: bool, hint: np.ndarray | None
+            ) -> tuple[dict[str, str | None], np.ndarray | None]:
         """Failure reason per check at one placement (None: passed); ``thorough``: IK falls back to the
         deep pass (the sim check's placement, whose verdict predicts ``mgdata grasps validate``)."""
         out: dict[str, str | None] = dict.fromkeys(CHECKS[:-1])
@@ -163,34 +181,37 @@ class LiveChecker:
         approach = target.rotation()[:, 2]
         pre = Pose(target.pos - approach * self.check_cfg.standoff, target.quat)
         rng = np.random.default_rng(0)
-        q_pre = self._solve(pre, self._seed(pre), rng, "pre-grasp", out, "approach", thorough)
-        q = None if q_pre is None else self._solve(target, q_pre, rng, "grasp", out, "arm", thorough)
+        seeds = [self._seed(pre)] if hint is None else [hint, self._seed(pre)]
+        q_pre = self._solve(pre, seeds, rng, "pre-grasp", out, "approach", thorough)
+        q = None if q_pre is None else self._solve(target, [q_pre], rng, "grasp", out, "arm", thorough)
         if q_pre is None or q is None:
             for name in ("arm", "approach", "lift"):
                 out[name] = out[name] or "not checked: " + (out["reach"] or "the pre-grasp pose collides")
-            return out
+            return out, q_pre
         out["reach"] = self._room(q_pre, q)
         out["arm"] = self._clear(q)
         out["approach"] = self._approach(q_pre, q, pre, target)
         out["lift"] = self._lift(obj.deep if thorough else obj.planner, q, target, world, rng)
-        return out
+        return out, q_pre
 
     def _seed(self, pose: Pose) -> np.ndarray:
         """``HOME_Q`` or ``HOME_Q`` with the wrist turned half a turn, whichever points the hand nearer
         ``pose``: the local IK cannot cross the wrist's joint limit to undo a half-turn roll by itself."""
         return min(self._homes, key=lambda q: self.obj.planner.fk(q).angle_to(pose))
 
-    def _solve(self, pose: Pose, seed: np.ndarray, rng: np.random.Generator, what: str,
+    def _solve(self, pose: Pose, seeds: list[np.ndarray], rng: np.random.Generator, what: str,
                out: dict[str, str | None], collision_check: str, thorough: bool) -> np.ndarray | None:
-        """IK with the fingers allowed to touch the object: the quick pass, then (``thorough``) the deep
-        pass where it fails. On failure, say whether the pose is out of reach (``reach``) or only reachable
-        in collision (``collision_check``)."""
+        """IK with the fingers allowed to touch the object: the quick pass from each seed, then
+        (``thorough``) the deep pass from the last one. On failure, say whether the pose is out of reach
+        (``reach``) or only reachable in collision (``collision_check``)."""
         quick, chk = self.obj.planner, self.obj.planner.checker
         deep = self.obj.deep if thorough else quick
+        seed = seeds[-1]
+        tries = [(quick, s) for s in seeds] + ([(deep, seed)] if thorough else [])
         q = None
-        for planner in (quick, deep) if thorough else (quick,):
+        for planner, start in tries:
             try:
-                q = planner.ik(pose, seed, rng)
+                q = planner.ik(pose, start, rng)
                 break
             except MotionFailure:
                 continue
