@@ -20,14 +20,15 @@ class LiveConfig:
     """The live checks (units: m, rad)."""
 
     placements: int = 2  # representative placements drawn from the family's recipe (plus the sim check's)
-    joint_margin: float = 0.05  # rad kept from every joint limit by the IK solutions (pre-grasp, grasp, lift)
+    joint_margin: float = 0.03  # rad kept from every joint limit by the IK solutions (pre-grasp, grasp, lift)
     ik_restarts: int = 2  # IK restarts per pose (the planner uses more; a verdict is due in ~100 ms)
     ik_iters: int = 40  # QP steps per IK attempt (an unreachable pose costs restarts × iters)
     deep_restarts: int = 12  # restarts of the second, thorough IK pass where the quick one fails
     approach_step: float = 0.01  # m between checked poses on the straight approach
     width_clearance: float = 0.004  # m of finger opening to spare around the grasped width
     min_grip_depth: float = 0.006  # m of object the pads must cover along the approach (they are 17 mm)
-    finger_penetration: float = 0.002  # m the open fingers may cut into the object (grasp pose, approach)
+    touch_depth: float = 0.002  # m the open hand may cut into the object and still count as touching
+    push_depth: float = 0.012  # m beyond which it lands on the object instead of around it
     default_x: float = 0.50  # m: the documented default placement when a family has no recipe placements
     default_y: Vec3 = (0.0, -0.12, 0.12)  # m, one default placement per value
 

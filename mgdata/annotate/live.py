@@ -6,16 +6,18 @@ stood there and five checks run with the generator's motion facade:
 * ``reach``: IK solutions for the pre-grasp pose (``standoff`` back along the approach, as the sim check)
   and the grasp pose, every joint at least ``joint_margin`` inside its limits: a quick pass, and at the
   sim check's placement also a thorough one with the planner's restarts, as ``mgdata grasps validate``;
-* ``arm``: at the grasp pose the arm and hand touch nothing; the open fingers may touch the object but
-  not cut more than ``finger_penetration`` into it (that hand would land on the object, not around it);
+* ``arm``: at the grasp pose nothing touches anything except the hand and the object;
 * ``approach``: the pre-grasp pose is collision-free and so is the straight line from it to the grasp (the
-  fingers may touch the object); joints are interpolated and the TCP must stay within ``LINE_TOL`` of the
+  hand may touch the object); joints are interpolated and the TCP must stay within ``LINE_TOL`` of the
   line, else the line is solved waypoint by waypoint;
 * ``lift``: the pose ``lift`` above the grasp is reachable with the object in the hand (object–table contact
   allowed), joints inside the margin;
 * ``width`` (the same everywhere): the object material between the open finger pads is narrower than the
   opening minus ``width_clearance``, and reaches at least ``min_grip_depth`` along the approach (the
-  fingers neither close on air nor pinch an edge).
+  fingers neither close on air nor pinch an edge);
+* ``contact`` (the same everywhere): how deep the open hand cuts into the object at the grasp pose and on
+  the approach: green up to ``touch_depth``, amber up to ``push_depth`` (the hand will push the object
+  before closing), red beyond (it lands on the object instead of around it).
 
 A check is green when it passes at every placement, amber at some, red at none; the verdict is the worst
 badge, and red too when no single placement passes everything. A cold check (``warm=False``) is
@@ -46,7 +48,8 @@ from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose
 from mgdata.sim import robot
 
-CHECKS: tuple[str, ...] = ("reach", "arm", "approach", "lift", "width")
+CHECKS: tuple[str, ...] = ("reach", "arm", "approach", "lift", "width", "contact")
+PER_PLACEMENT: tuple[str, ...] = CHECKS[:4]
 LEVELS: tuple[str, ...] = ("green", "amber", "red")
 WARM_DIST, WARM_ANGLE = 0.05, 0.5
 """m, rad: a pose this near the previous one starts its IK from the previous solutions (a drag)."""
@@ -97,12 +100,11 @@ class LiveChecker:
         self.obj, self.placements, self.cfg, self.check_cfg = obj, placements, cfg, check
         planner = obj.planner
         self._lower, self._upper = planner.lower, planner.upper
-        fingers = tuple((f, INSTANCE) for f in robot.FINGER_BODIES)
-        self._fingers = AllowedContacts(fingers)
+        self._fingers = AllowedContacts(((robot.HAND_BODY, INSTANCE),))  # judged by depth instead
         m = obj.scene.model
-        fingers = np.concatenate([body_subtree_geoms(m, m.body(b).id) for b in robot.FINGER_BODIES])
         self._finger_geoms = np.zeros(m.ngeom, dtype=bool)
-        self._finger_geoms[fingers] = True
+        self._finger_geoms[body_subtree_geoms(m, m.body(robot.HAND_BODY).id)] = True
+        self._depth: float | None = None
         self._object_geoms = np.zeros(m.ngeom, dtype=bool)
         self._object_geoms[obj.scene.object_geom_ids(INSTANCE)] = True
         turned = robot.HOME_Q.copy()
@@ -129,6 +131,7 @@ class LiveChecker:
         grasp = Grasp("draft", tuple(pose.pos), tuple(pose.quat), approach_hint(pose.quat), "annotated")
         placements = (sim_check_placement(grasp, self.check_cfg), *self.placements)
         width = self._width(pose)
+        self._depth = None
         results: list[dict[str, str | None]] = []
         for i, placement in enumerate(placements):
             if stale():
@@ -139,7 +142,7 @@ class LiveChecker:
             witnesses.append(q_pre)
         self._last = (pose, witnesses)
         badges = []
-        for name in CHECKS[:-1]:
+        for name in PER_PLACEMENT:
             fails = [(p, r[name]) for p, r in zip(placements, results, strict=True) if r[name] is not None]
             if not fails:
                 badges.append(Badge(name, "green", f"clear at all {len(placements)} placements"))
@@ -151,7 +154,10 @@ class LiveChecker:
                 badges.append(Badge(name, "red", f"fails at every placement; {placements[0].label}: "
                                     f"{fails[0][1]}"))
         badges.append(Badge("width", "green" if width[0] else "red", width[1]))
-        clear = tuple(all(v is None for v in r.values()) and width[0] for r in results)
+        contact = self._contact_badge()
+        badges.append(contact)
+        clear = tuple(all(v is None for v in r.values()) and width[0] and contact.level != "red"
+                      for r in results)
         level = _worst([b.level for b in badges])
         if not any(clear):
             level = "red"
@@ -163,7 +169,7 @@ class LiveChecker:
         for q in qs:
             room = np.minimum(q - self._lower, self._upper - q)
             j = int(np.argmin(room))
-            if room[j] < self.cfg.joint_margin:
+            if room[j] < self.cfg.joint_margin - 1e-3:  # IK keeps the margin up to its own tolerance
                 return (f"joint{j + 1} {max(room[j], 0.0):.2f} rad from its limit "
                         f"(margin {self.cfg.joint_margin:g})")
         return None
@@ -172,7 +178,7 @@ class LiveChecker:
             ) -> tuple[dict[str, str | None], np.ndarray | None]:
         """Failure reason per check at one placement (None: passed); ``thorough``: IK falls back to the
         deep pass (the sim check's placement, whose verdict predicts ``mgdata grasps validate``)."""
-        out: dict[str, str | None] = dict.fromkeys(CHECKS[:-1])
+        out: dict[str, str | None] = dict.fromkeys(PER_PLACEMENT)
         obj = self.obj
         obj.place(placement)
         world = placement.matrix()
@@ -252,22 +258,35 @@ class LiveChecker:
         return None
 
     def _clear(self, q: np.ndarray) -> str | None:
-        """None if ``q`` is collision-free with the fingers at most touching the object (open fingers go
-        around it; pads cut deeper than ``finger_penetration`` into it mean the hand lands on it)."""
+        """None if ``q`` is collision-free apart from the hand touching the object; how deep the open hand
+        cuts into the object is recorded for the ``contact`` badge (it is the same at every placement)."""
         chk = self.obj.planner.checker
         chk.configure(self._fingers, None, 0.0)
         if not chk.valid(q):
             return chk.explain(q)
         con = chk.data.contact[: chk.data.ncon]
+        depth = 0.0
         if len(con):
             g1, g2 = con.geom[:, 0], con.geom[:, 1]
             fo = self._finger_geoms, self._object_geoms
             pair = (fo[0][g1] & fo[1][g2]) | (fo[0][g2] & fo[1][g1])
-            deep = pair & (con.dist < -self.cfg.finger_penetration)
-            if deep.any():
-                return (f"a finger cuts {-float(con.dist[deep].min()) * 1000:.0f} mm into the object "
-                        f"(limit {self.cfg.finger_penetration * 1000:.0f} mm)")
+            if pair.any():
+                depth = max(0.0, -float(con.dist[pair].min()))
+        self._depth = max(self._depth or 0.0, depth)
         return None
+
+    def _contact_badge(self) -> Badge:
+        d, touch, push = self._depth, self.cfg.touch_depth, self.cfg.push_depth
+        if d is None:
+            return Badge("contact", "amber", "not checked: the grasp is reachable nowhere")
+        mm = f"{d * 1000:.0f} mm"
+        if d <= touch:
+            return Badge("contact", "green", f"the open hand at most touches the object ({mm})")
+        if d <= push:
+            return Badge("contact", "amber", f"the open hand cuts {mm} into the object on the way in: it "
+                         f"will push the object before the fingers close (green up to {touch * 1000:.0f} mm)")
+        return Badge("contact", "red", f"the open hand cuts {mm} into the object: it lands on it instead of "
+                     f"around it (limit {push * 1000:.0f} mm)")
 
     def _lift(self, planner: MotionPlanner, q: np.ndarray, target: Pose, world_T_obj: np.ndarray,
               rng: np.random.Generator) -> str | None:

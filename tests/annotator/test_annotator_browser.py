@@ -99,7 +99,7 @@ def test_gizmo_drag_updates_the_verdict_within_150_ms(app: Annotator, page) -> N
     print(f"verdict shown {latency * 1000:.0f} ms after the drag ended (server clock)")
     assert latency <= 0.150, f"verdict shown {latency * 1000:.0f} ms after the drag ended"
     wait_for(lambda: page.locator("[data-verdict]").inner_text() != shown, what="the badges to update")
-    assert page.locator("[data-check]").count() == 5
+    assert page.locator("[data-check]").count() == 6
     _select(page, "mode", "guided")
     wait_for(lambda: app.mode.value == "guided", what="guided mode")
 
