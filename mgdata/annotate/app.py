@@ -54,6 +54,7 @@ class Annotator:
         self.settings = settings or load_annotate_config()
         self.check_cfg = check or load_grasp_config().check
         self.events: list[tuple[str, float, int, str]] = []
+        self.timings: list[Done[Verdict]] = []  # every verdict shown, with its job's wall and CPU time
         self._lock = threading.RLock()
         self._seq = 0
         self.server = viser.ViserServer(host=host, port=port, label="mgdata annotate", verbose=False)
@@ -222,6 +223,7 @@ class Annotator:
                 self.view.set_level(v.level)
                 self.badges.content = _badges_html(v)
             self._event("verdict", done.seq, v.level)
+            self.timings.append(done)
 
     def check_in_sim(self) -> None:
         """Run ``mgdata grasps validate``'s close-and-lift check on the draft in the background."""

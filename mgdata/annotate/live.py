@@ -88,6 +88,10 @@ class Verdict:
         return next(b for b in self.badges if b.name == name)
 
 
+class _Stale(Exception):
+    """A newer pose is waiting: the check in progress is abandoned."""
+
+
 def _worst(levels: list[str]) -> str:
     return max(levels, key=LEVELS.index)
 
@@ -111,6 +115,7 @@ class LiveChecker:
         turned[6] -= np.pi
         self._homes = (robot.HOME_Q, turned)
         self._last: tuple[Pose, list[np.ndarray | None]] | None = None
+        self._stale: Callable[[], bool] = lambda: False
         self._lifting = AllowedContacts(((robot.HAND_BODY, INSTANCE), (INSTANCE, "table")))
 
     # --------------------------------------------------------------------------------------- public
@@ -133,11 +138,13 @@ class LiveChecker:
         width = self._width(pose)
         self._depth = None
         results: list[dict[str, str | None]] = []
+        self._stale = stale
         for i, placement in enumerate(placements):
-            if stale():
-                return None
             hint = last[1][i] if near and last is not None and i < len(last[1]) else None
-            out, q_pre = self._at(placement, pose, thorough=i == 0, hint=hint)
+            try:
+                out, q_pre = self._at(placement, pose, thorough=i == 0, hint=hint)
+            except _Stale:
+                return None
             results.append(out)
             witnesses.append(q_pre)
         self._last = (pose, witnesses)
@@ -188,8 +195,11 @@ class LiveChecker:
         pre = Pose(target.pos - approach * self.check_cfg.standoff, target.quat)
         rng = np.random.default_rng(0)
         seeds = [self._seed(pre)] if hint is None else [hint, self._seed(pre)]
+        self._poll()
         q_pre = self._solve(pre, seeds, rng, "pre-grasp", out, "approach", thorough)
+        self._poll()
         q = None if q_pre is None else self._solve(target, [q_pre], rng, "grasp", out, "arm", thorough)
+        self._poll()
         if q_pre is None or q is None:
             for name in ("arm", "approach", "lift"):
                 out[name] = out[name] or "not checked: " + (out["reach"] or "the pre-grasp pose collides")
@@ -197,6 +207,7 @@ class LiveChecker:
         out["reach"] = self._room(q_pre, q)
         out["arm"] = self._clear(q)
         out["approach"] = self._approach(q_pre, q, pre, target)
+        self._poll()
         out["lift"] = self._lift(obj.deep if thorough else obj.planner, q, target, world, rng)
         return out, q_pre
 
@@ -204,6 +215,11 @@ class LiveChecker:
         """``HOME_Q`` or ``HOME_Q`` with the wrist turned half a turn, whichever points the hand nearer
         ``pose``: the local IK cannot cross the wrist's joint limit to undo a half-turn roll by itself."""
         return min(self._homes, key=lambda q: self.obj.planner.fk(q).angle_to(pose))
+
+    def _poll(self) -> None:
+        """Give up (raise :class:`_Stale`) when a newer pose is waiting."""
+        if self._stale():
+            raise _Stale
 
     def _solve(self, pose: Pose, seeds: list[np.ndarray], rng: np.random.Generator, what: str,
                out: dict[str, str | None], collision_check: str, thorough: bool) -> np.ndarray | None:

@@ -24,13 +24,16 @@ T = TypeVar("T")
 
 @dataclass(frozen=True)
 class Done(Generic[T]):
-    """A finished request: its number, input, result and server-side times (s, ``time.monotonic``)."""
+    """A finished request: its number, input, result, server-side times (s, ``time.monotonic``) and the
+    job's own wall and CPU seconds (their difference is time the OS did not run the thread)."""
 
     seq: int
     request: Any
     result: T
     submitted: float
     finished: float
+    wall: float = 0.0
+    cpu: float = 0.0
 
 
 class LatestWorker(Generic[T]):
@@ -69,11 +72,13 @@ class LatestWorker(Generic[T]):
                     return
                 seq, request, submitted = self._pending  # type: ignore[misc]
                 self._pending = None
+            w0, c0 = time.monotonic(), time.thread_time()
             result = self._job(request, self._stale)
             if result is None:  # gave up: a newer request is waiting
                 self.skipped += 1
                 continue
-            self._on_result(Done(seq, request, result, submitted, time.monotonic()))
+            now = time.monotonic()
+            self._on_result(Done(seq, request, result, submitted, now, now - w0, time.thread_time() - c0))
 
     def close(self) -> None:
         """Stop the thread (a job in progress is told to give up)."""
