@@ -26,9 +26,10 @@ class LiveConfig:
     deep_restarts: int = 12  # restarts of the second, thorough IK pass where the quick one fails
     approach_step: float = 0.01  # m between checked poses on the straight approach
     width_clearance: float = 0.004  # m of finger opening to spare around the grasped width
-    min_grip_depth: float = 0.006  # m of object the pads must cover along the approach (they are 17 mm)
+    min_grip_depth: float = 0.008  # m of object the pads cover along the approach: a green grip (pads 17 mm)
+    pinch_depth: float = 0.003  # m below which the fingers pinch an edge (red); amber in between
     touch_depth: float = 0.002  # m the open hand may cut into the object and still count as touching
-    push_depth: float = 0.012  # m beyond which it lands on the object instead of around it
+    push_depth: float = 0.020  # m beyond which it lands on the object instead of around it
     default_x: float = 0.50  # m: the documented default placement when a family has no recipe placements
     default_y: Vec3 = (0.0, -0.12, 0.12)  # m, one default placement per value
 

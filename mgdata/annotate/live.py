@@ -13,8 +13,8 @@ stood there and five checks run with the generator's motion facade:
 * ``lift``: the pose ``lift`` above the grasp is reachable with the object in the hand (object–table contact
   allowed), joints inside the margin;
 * ``width`` (the same everywhere): the object material between the open finger pads is narrower than the
-  opening minus ``width_clearance``, and reaches at least ``min_grip_depth`` along the approach (the
-  fingers neither close on air nor pinch an edge);
+  opening minus ``width_clearance`` (else red) and reaches along the approach at least ``min_grip_depth``
+  (green), ``pinch_depth`` (amber) or less (red: the fingers pinch an edge or close on air);
 * ``contact`` (the same everywhere): how deep the open hand cuts into the object at the grasp pose and on
   the approach: green up to ``touch_depth``, amber up to ``push_depth`` (the hand will push the object
   before closing), red beyond (it lands on the object instead of around it).
@@ -160,10 +160,10 @@ class LiveChecker:
             else:
                 badges.append(Badge(name, "red", f"fails at every placement; {placements[0].label}: "
                                     f"{fails[0][1]}"))
-        badges.append(Badge("width", "green" if width[0] else "red", width[1]))
+        badges.append(Badge("width", *width))
         contact = self._contact_badge()
         badges.append(contact)
-        clear = tuple(all(v is None for v in r.values()) and width[0] and contact.level != "red"
+        clear = tuple(all(v is None for v in r.values()) and width[0] != "red" and contact.level != "red"
                       for r in results)
         level = _worst([b.level for b in badges])
         if not any(clear):
@@ -315,7 +315,7 @@ class LiveChecker:
         return self._room(q_up)
 
     # ----------------------------------------------------------------------------------------- width
-    def _width(self, pose: Pose) -> tuple[bool, str]:
+    def _width(self, pose: Pose) -> tuple[str, str]:
         pads = self.obj.pads
         tcp_T_obj = np.linalg.inv(pose.matrix())
         pts = self.obj.surface @ tcp_T_obj[:3, :3].T + tcp_T_obj[:3, 3]
@@ -323,17 +323,19 @@ class LiveChecker:
                   & (np.abs(pts[:, 1]) <= pads.half_gap))
         opening = 2.0 * pads.half_gap
         if not inside.any():
-            return False, "nothing between the finger pads: the fingers would close on air"
+            return "red", "nothing between the finger pads: the fingers would close on air"
         ys, zs = pts[inside, 1], pts[inside, 2]
         width, depth = float(ys.max() - ys.min()), float(zs.max() - zs.min())
-        if depth < self.cfg.min_grip_depth:
-            return False, (f"the pads would hold only {depth * 1000:.0f} mm of the object along the approach "
-                           f"(at least {self.cfg.min_grip_depth * 1000:.0f} mm)")
         limit = opening - self.cfg.width_clearance
         if width > limit:
-            return False, (f"{width * 100:.1f} cm of object between the pads; the hand opens "
+            return "red", (f"{width * 100:.1f} cm of object between the pads; the hand opens "
                            f"{opening * 100:.1f} cm ({self.cfg.width_clearance * 1000:.0f} mm to spare)")
-        return True, f"{width * 100:.1f} cm between the pads (opening {opening * 100:.1f} cm)"
+        held = f"{width * 100:.1f} cm across, {depth * 1000:.0f} mm deep between the pads"
+        if depth < self.cfg.pinch_depth:
+            return "red", f"{held}: the fingers would pinch an edge (< {self.cfg.pinch_depth * 1000:.0f} mm)"
+        if depth < self.cfg.min_grip_depth:
+            return "amber", f"{held}: a shallow grip (green from {self.cfg.min_grip_depth * 1000:.0f} mm)"
+        return "green", f"{held} (opening {opening * 100:.1f} cm)"
 
 
 def _line_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
