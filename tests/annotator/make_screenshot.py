@@ -20,7 +20,7 @@ from mgdata.annotate.catalog import Catalog
 from mgdata.annotate.store import GraspStore
 from mgdata.sim.assets import get_model
 
-VIEWPORT = (1280, 860)
+VIEWPORT = (1280, 940)
 
 
 def main(out: Path) -> None:
