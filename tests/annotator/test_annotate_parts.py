@@ -184,3 +184,22 @@ def test_live_checks_flag_unreachable_and_colliding_poses(jar_checker: LiveCheck
 
 def test_a_stale_check_gives_up(jar_checker: LiveChecker) -> None:
     assert jar_checker.check(_side(0.07), stale=lambda: True) is None
+
+
+# ----------------------------------------------------------------------------------------------- export
+def test_export_writes_transforms_and_success_flags(tmp_path) -> None:
+    from mgdata.annotate.export import export_grasps
+
+    w, x, y, z = 0.5, 0.5, 0.5, 0.5  # 120° about (1, 1, 1): x -> y -> z -> x
+    ok = Grasp("a", (0.01, 0.02, 0.03), (w, x, y, z), "side", "annotated", "valid")
+    bad = Grasp("b", (0.0, 0.0, 0.1), (0.0, 1.0, 0.0, 0.0), "top_down", "generated", "invalid")
+    path = export_grasps(GraspDB({"jar/hinged_00": (ok, bad)}), ["jar/hinged_00", "cup/tumbler_00"],
+                         tmp_path / "export" / "jar.npz")
+    data = np.load(path)  # no pickle needed
+    assert list(data["ids"]) == ["a", "b"] and list(data["keys"]) == ["jar/hinged_00"] * 2
+    assert list(data["success"]) == [True, False] and list(data["validated"]) == [True, True]
+    expected = np.eye(4)
+    expected[:3, :3] = [[0, 0, 1], [1, 0, 0], [0, 1, 0]]  # columns: images of x, y, z
+    expected[:3, 3] = (0.01, 0.02, 0.03)
+    assert np.allclose(data["transforms"][0], expected)
+    assert np.allclose(data["transforms"][1][:3, 2], (0.0, 0.0, -1.0))  # approach straight down
