@@ -28,6 +28,7 @@ class LiveConfig:
     width_clearance: float = 0.004  # m of finger opening to spare around the grasped width
     min_grip_depth: float = 0.008  # m of object the pads cover along the approach: a green grip (pads 17 mm)
     pinch_depth: float = 0.003  # m below which the fingers pinch an edge (red); amber in between
+    grip_cone_deg: float = 30.0  # deg the first-contact surfaces may face away from the closing axis (green)
     touch_depth: float = 0.002  # m the open hand may cut into the object and still count as touching
     push_depth: float = 0.020  # m beyond which it lands on the object instead of around it
     default_x: float = 0.50  # m: the documented default placement when a family has no recipe placements

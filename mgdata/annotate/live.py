@@ -14,7 +14,8 @@ stood there and five checks run with the generator's motion facade:
   allowed), joints inside the margin;
 * ``width`` (the same everywhere): the object material between the open finger pads is narrower than the
   opening minus ``width_clearance`` (else red) and reaches along the approach at least ``min_grip_depth``
-  (green), ``pinch_depth`` (amber) or less (red: the fingers pinch an edge or close on air);
+  (green), ``pinch_depth`` (amber) or less (red: the fingers pinch an edge or close on air); the surfaces
+  each finger meets first face it within ``grip_cone_deg`` (else amber: the object may squirt out);
 * ``contact`` (the same everywhere): how deep the open hand cuts into the object at the grasp pose and on
   the approach: green up to ``touch_depth``, amber up to ``push_depth`` (the hand will push the object
   before closing), red beyond (it lands on the object instead of around it).
@@ -319,6 +320,7 @@ class LiveChecker:
         pads = self.obj.pads
         tcp_T_obj = np.linalg.inv(pose.matrix())
         pts = self.obj.surface @ tcp_T_obj[:3, :3].T + tcp_T_obj[:3, 3]
+        normals = self.obj.normals @ tcp_T_obj[:3, :3].T
         inside = ((np.abs(pts[:, 0]) <= pads.half_x) & (pts[:, 2] >= pads.z_lo) & (pts[:, 2] <= pads.z_hi)
                   & (np.abs(pts[:, 1]) <= pads.half_gap))
         opening = 2.0 * pads.half_gap
@@ -335,7 +337,22 @@ class LiveChecker:
             return "red", f"{held}: the fingers would pinch an edge (< {self.cfg.pinch_depth * 1000:.0f} mm)"
         if depth < self.cfg.min_grip_depth:
             return "amber", f"{held}: a shallow grip (green from {self.cfg.min_grip_depth * 1000:.0f} mm)"
+        skew = _closing_skew(ys, normals[inside, 1])
+        if skew > self.cfg.grip_cone_deg:
+            return "amber", (f"{held}, but the surfaces the fingers meet first face {skew:.0f}° away from "
+                             f"the closing direction (green up to {self.cfg.grip_cone_deg:g}°): it may slip")
         return "green", f"{held} (opening {opening * 100:.1f} cm)"
+
+
+def _closing_skew(ys: np.ndarray, ny: np.ndarray, patch: float = 0.002) -> float:
+    """Median angle (deg) between the closing direction and the surface normals of the patches each
+    finger meets first (points within ``patch`` m of the extreme y on either side); an antipodal grasp has
+    normals along ∓Y there."""
+    angles = []
+    for side, sign in ((ys >= ys.max() - patch, 1.0), (ys <= ys.min() + patch, -1.0)):
+        cos = np.clip(sign * ny[side], -1.0, 1.0)  # outward normal should point at the finger on that side
+        angles.append(float(np.median(np.degrees(np.arccos(cos)))))
+    return max(angles)
 
 
 def _line_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

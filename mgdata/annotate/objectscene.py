@@ -60,7 +60,8 @@ class ObjectScene:
         planner: the motion facade of this scene (quick IK: the live config's restarts and iterations).
         deep: the same with the thorough IK pass (``deep_restarts``), for poses the quick pass fails on.
         visual: the object's visible meshes in its own frame, with colours.
-        surface: points (n, 3) on the object's colliding surfaces, in its own frame.
+        surface: points (n, 3) on the object's colliding surfaces (convex parts), in its own frame.
+        normals: the outward surface normal (n, 3) at each of those points.
         hand: the Panda hand's visible meshes (hand and open fingers) in the TCP frame, with colours.
         pads: the fingers' closing space in the TCP frame.
     """
@@ -83,8 +84,9 @@ class ObjectScene:
         self.visual = geom_meshes(m, d, body_subtree_geoms(m, body, VISUAL_GROUPS), obj_T_world)
         parts = [geom_mesh(m, d, int(g), obj_T_world) for g in scene.object_geom_ids(INSTANCE)]
         collision = trimesh.util.concatenate([p.convex_hull for p in parts if p is not None])
-        points, _ = trimesh.sample.sample_surface(collision, SURFACE_SAMPLES, seed=0)
-        self.surface = np.vstack([points, collision.vertices])
+        points, faces = trimesh.sample.sample_surface(collision, SURFACE_SAMPLES, seed=0)
+        self.surface = np.asarray(points)
+        self.normals = np.asarray(collision.face_normals[faces])
         tcp_T_world = np.linalg.inv(_tcp_matrix(m, d))
         hand = body_subtree_geoms(m, m.body(robot.HAND_BODY).id)
         self.hand = geom_meshes(m, d, hand[np.isin(m.geom_group[hand], VISUAL_GROUPS)], tcp_T_world)
