@@ -56,6 +56,7 @@ class Annotator:
         self.events: list[tuple[str, float, int, str]] = []
         self.timings: list[Done[Verdict]] = []  # every verdict shown, with its job's wall and CPU time
         self._lock = threading.RLock()
+        self._closed = False
         self._seq = 0
         self.server = viser.ViserServer(host=host, port=port, label="mgdata annotate", verbose=False)
         self.view = View(self.server, self._clicked, self._gizmo_moved)
@@ -216,7 +217,7 @@ class Annotator:
 
     def _show_verdict(self, done: Done[Verdict]) -> None:
         with self._lock:
-            if done.seq != self._seq:
+            if done.seq != self._seq or self._closed:
                 return
             v = self.verdict = done.result
             with self.server.atomic():
@@ -289,6 +290,8 @@ class Annotator:
             self.close()
 
     def close(self) -> None:
+        with self._lock:
+            self._closed = True
         self.worker.close()
         self.server.stop()
 
