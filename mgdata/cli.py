@@ -48,6 +48,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "mgdata.engine.commands",
     "mgdata.record.commands",
     "mgdata.ltl.commands",
+    "mgdata.annotate.commands",
     "teleop.commands",
 )
 

@@ -2,14 +2,16 @@
 # Set up mgdata on a fresh Debian/Ubuntu machine: system libraries, a .venv, the package (editable) and the
 # offline Franka Panda model. Idempotent and quick when everything is already there.
 #   scripts/setup.sh          runtime only
-#   scripts/setup.sh --dev    plus test tools (pytest, hypothesis, ruff, ltlf2dfa and Debian's mona)
+#   scripts/setup.sh --dev    plus test tools (pytest, hypothesis, ruff, ltlf2dfa and Debian's mona; playwright
+#                             and Debian's chromium for the annotator's browser tests, no browser download)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 dev=0
 [ "${1:-}" = "--dev" ] && dev=1
 
-# System packages: Mesa EGL/OSMesa for headless rendering; mona is the LTL_f test oracle.
+# System packages: Mesa EGL/OSMesa for headless rendering; mona is the LTL_f test oracle; chromium runs the
+# annotator's browser tests.
 pkgs=(libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopengl0 libosmesa6)
 [ "$dev" = 1 ] && pkgs+=(mona chromium)
 missing=()
@@ -24,6 +26,7 @@ fi
 # Python environment.
 [ -x .venv/bin/python ] || python3 -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
+export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1  # the tests drive Debian's chromium, never a downloaded one
 extra=""; [ "$dev" = 1 ] && extra="[dev]"
 .venv/bin/python -m pip install -q -e ".${extra}"
 # The Panda MJCF (MuJoCo Menagerie derivative, Apache-2.0) without robotblockset's heavy dependencies.

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from mgdata.grasps.db import Grasp
+from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.sim.assets.model import ObjectModel
 
 MAX_OPENING = 0.08
@@ -73,8 +73,9 @@ def side_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
             y = np.array([-math.sin(phi), math.cos(phi), 0.0]) * (1.0 if roll == 0 else -1.0)
             x = np.cross(y, approach)
             pos = side * back + np.array([0.0, 0.0, height])
-            out.append(Grasp(f"side_{round(math.degrees(phi)):03d}_r{roll}", tuple(pos.tolist()),
-                             _quat(x, y, approach), "side", "generated"))
+            quat = _quat(x, y, approach)
+            out.append(Grasp(f"side_{round(math.degrees(phi)):03d}_r{roll}", tuple(pos.tolist()), quat,
+                             approach_hint(quat), "generated"))
     return out
 
 
@@ -93,7 +94,8 @@ def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     for roll in (0, 1):
         y = close_along * (1.0 if roll == 0 else -1.0)
         x = np.cross(y, approach)
-        out.append(Grasp(f"top_r{roll}", pos, _quat(x, y, approach), "top_down", "generated"))
+        quat = _quat(x, y, approach)
+        out.append(Grasp(f"top_r{roll}", pos, quat, approach_hint(quat), "generated"))
     return out
 
 

@@ -44,11 +44,18 @@ class GraspCheckConfig:
     seed: int = 0
 
 
-def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
+def check_placement(grasp: Grasp, cfg: GraspCheckConfig) -> tuple[tuple[float, float, float], float]:
+    """Where the check stands the object: position (m), and yaw (rad) turning the approach away from the
+    robot."""
     approach = grasp.matrix()[:3, 2]
     yaw = -math.atan2(approach[1], approach[0]) if np.hypot(approach[0], approach[1]) > 1e-6 else 0.0
+    return (cfg.place_x, 0.0, TABLE_TOP_Z), yaw
+
+
+def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
+    pos, yaw = check_placement(grasp, cfg)
     return TaskSpec(family="grasp_check", task_id=0, condition="base", prompt="", seed=cfg.seed,
-                    objects=(ObjectPlacement("object", model, (cfg.place_x, 0.0, TABLE_TOP_Z), yaw),),
+                    objects=(ObjectPlacement("object", model, pos, yaw),),
                     safety=SafetySpec("grasp_check", (), ()))
 
 

@@ -142,6 +142,16 @@ class GraspDB:
         return written
 
 
+def approach_hint(quat: Iterable[float]) -> str:
+    """The approach hint of a TCP orientation (w, x, y, z) in the object frame, from the angle between the
+    gripper's +Z and straight down: up to 60° ``top_down``, from 120° ``bottom_up``, otherwise ``side``."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(tuple(quat), dtype=float))
+    down = -float(rot[8])  # (+Z of the gripper) · (0, 0, −1)
+    angle = math.degrees(math.acos(min(1.0, max(-1.0, down))))
+    return "top_down" if angle <= 60.0 else "bottom_up" if angle >= 120.0 else "side"
+
+
 def write_file(path: Path, objects: Mapping[str, Iterable[Grasp]]) -> None:
     """Write one category file atomically: readers see the old file or the new one, never a partial one."""
     doc = {
