@@ -20,8 +20,11 @@ class LeaderConfig:
     stale_s: float = 0.25
     gripper_threshold: float = 0.5
     max_joint_step: float = 0.15
+    still_joint_step: float = 0.002
 
     def __post_init__(self) -> None:
+        if self.still_joint_step < 0.0:
+            raise RecipeError(f"[leader] still_joint_step = {self.still_joint_step}: must be >= 0")
         if self.reader_hz < 100.0:
             raise RecipeError(f"[leader] reader_hz = {self.reader_hz}: must be at least 100 Hz")
         if not 0.0 < self.gripper_threshold < 1.0:

@@ -36,6 +36,7 @@ from mgdata.engine.executor import dataset_schema
 from mgdata.engine.gate import SuccessGate
 from mgdata.engine.generate import failed_path
 from mgdata.engine.runner import EpisodeRunner, StepOutcome
+from mgdata.engine.success import SuccessCheck
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.record.commit import work_dir
 from mgdata.record.episode import EpisodeMeta, Frame
@@ -43,12 +44,11 @@ from mgdata.record.recorder import Recorder
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.writer import DatasetWriter
 from mgdata.sim.controller import JointController
-from mgdata.sim.labelling import Labeller
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
-from mgdata.spec import SafetySpec
 from mgdata.tasks.base import base_task
 from mgdata.tasks.recipe import load_recipe
+from teleop.config import load_teleop_config
 from teleop.mapping import Mapper, StepEvents
 from teleop.reader import LeaderReader
 from teleop.stream import LeaderStream, stream_path
@@ -139,16 +139,19 @@ class TeleopSession:
         self.controller = JointController(self.scene)
         self.dt = self.scene.physics.control_dt
         self.cameras = CameraRig(self.scene, self.recipe.tasks.cameras, self.task.image_size)
-        goal = Labeller(self.scene, SafetySpec(f"{job.family}_goal", (), self.recipe.success))
+        success = SuccessCheck(self.scene, self.recipe)
+        self.still_joint_step = load_teleop_config().leader.still_joint_step
         schema = dataset_schema(self.recipe)
-        self.writer = DatasetWriter.open_or_create(job.out, schema, codec=job.codec, spec=self.recipe.spec)
+        hold = self.recipe.tasks.hold_steps
+        self.writer = DatasetWriter.open_or_create(job.out, schema, codec=job.codec, spec=self.recipe.spec,
+                                                   hold_steps=hold, kept_only=True)
         self.failed: DatasetWriter | None = None
         if job.keep_failed:
             self.failed = DatasetWriter.open_or_create(failed_path(job.out), schema, codec=job.codec,
-                                                       spec=self.recipe.spec)
+                                                       spec=self.recipe.spec, hold_steps=hold)
         self.stage_dir = work_dir(job.out) / "staging" / f"teleop-{os.getpid()}"
         self.recorder = Recorder(self.scene, self.task.safety, _NoSink(), self.cameras,
-                                 lambda scene: bool(np.all(goal.labels())))
+                                 lambda scene: success())
         self.runner = EpisodeRunner(self.controller, self.recorder, SuccessGate(self.recipe.tasks.hold_steps),
                                     self.recipe.tasks.horizon)
         self.commands: queue.Queue[str] = queue.Queue()
@@ -264,7 +267,9 @@ class TeleopSession:
         ep.clutch.append(events.clutch)
         ep.grip.append(events.grip_toggle)
         try:
-            out = self.runner.step(q, grip)
+            still = (float(np.max(np.abs(np.asarray(q) - self.runner.q_cmd))) <= self.still_joint_step
+                     and grip == self.runner.grip)
+            out = self.runner.step(q, grip, holding=still)
         except SimulationError as err:
             self._end("sim_diverged", str(err))
             return None
@@ -375,6 +380,9 @@ class _Tap:
     def __init__(self, sink: EpisodeStager, status: SessionStatus) -> None:
         self.sink, self.status = sink, status
 
+    def set_scene(self, mjb: bytes) -> None:
+        self.sink.set_scene(mjb)
+
     def add_frame(self, frame: Frame) -> None:
         self.sink.add_frame(frame)
         self.status.images = dict(frame.images)
@@ -388,6 +396,9 @@ class _Tap:
 
 class _NoSink:
     """Placeholder sink between episodes (each episode records into its own stager)."""
+
+    def set_scene(self, mjb: bytes) -> None:
+        raise RuntimeError("no episode in progress")
 
     def add_frame(self, frame: object) -> None:
         raise RuntimeError("no episode in progress")

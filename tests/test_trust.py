@@ -1,9 +1,10 @@
 """Kept means succeeded, checked from the dataset alone.
 
-A small jar dataset is generated with the real CLI; then, with nothing but ``mujoco``, ``pyarrow`` and ``numpy``
-(no mgdata code), each kept episode's stored scene is loaded, its stored physics states are restored, and the
-last ``hold_steps`` frames are measured from raw MuJoCo data: the jar's bounding-volume centre inside the goal
-sphere, the lid shut, both fingers touching the jar, no contact between the jar and the table, the jar at rest.
+A small jar dataset is generated with the real CLI; then, with nothing but ``mujoco``, ``pyarrow`` and
+``numpy`` (no mgdata code), each kept episode's stored scene is loaded, its stored physics states are
+restored, and the last ``hold_steps`` frames are measured from raw MuJoCo data: the jar's bounding-volume
+centre inside the goal sphere, the lid shut, both fingers touching the jar, no contact between the jar and the
+table, the jar at rest.
 The per-step columns are checked too: no violation flag on any frame of a kept episode.
 """
 

@@ -29,14 +29,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed, RestCheck, SuccessGate, keep
+from mgdata.engine.gate import AttemptFailed, SuccessGate
+from mgdata.engine.runner import EpisodeRunner
 from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
+from mgdata.engine.success import SuccessCheck
 from mgdata.engine.timing import Timings
 from mgdata.engine.variation import draw_variation
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.grasps.db import GraspDB
-from mgdata.ltl import verdict
 from mgdata.motion import (
     Attachment,
     JointTrajectory,
@@ -51,12 +52,9 @@ from mgdata.record.physics import state_size
 from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
-from mgdata.sim.labelling import Labeller
-from mgdata.sim.predicates import resolve
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.world import Physics
-from mgdata.spec import SafetySpec
 from mgdata.tasks.base import base_task
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
@@ -183,11 +181,7 @@ class Executor:
         control_rate(self.scene.physics, motion)
         self.planner = MotionPlanner(self.scene.model, motion)
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None
-        self._goal = Labeller(self.scene, SafetySpec(f"{task.family}_goal", (), recipe.success))
-        subjects = dict.fromkeys(n for p in recipe.success for s in p.subjects
-                                 for n in resolve(self.scene, s, "success subject"))
-        self._rest = RestCheck(self.scene.model, [self.scene.object_body(n) for n in subjects],
-                               linear=recipe.tasks.rest_linear_speed, angular=recipe.tasks.rest_angular_speed)
+        self._success = SuccessCheck(self.scene, recipe)
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}
 
@@ -208,10 +202,11 @@ class Executor:
         ctx = Context(task, self.scene, self.planner, var, self.grasps, self.scene.arm_q())
         gate = SuccessGate(settings.hold_steps)
         recorder = Recorder(self.scene, task.safety, _TimedSink(sink, timings), self.cameras,
-                            lambda scene: self._success(ctx))
-        state = _Run(ctx, recorder, gate, timings, settings.horizon)
+                            lambda scene: self._success(lambda: self.skeleton.success_extra(ctx)))
+        runner = EpisodeRunner(self.controller, recorder, gate, settings.horizon, timings)
+        state = _Run(ctx, runner)
         stage = reason = segment = None
-        recorder.start()
+        runner.start()
         try:
             segments = list(self.skeleton.segments(ctx))
             last_motion = max((i for i, seg in enumerate(segments) if seg.kind != "hold"), default=-1)
@@ -221,7 +216,7 @@ class Executor:
                 self._segment(seg, ctx, state)
             segment, state.holding = "settle", True
             for _ in range(settings.settle_steps):
-                self._step(ctx.q_cmd, state.grip, state)
+                self._step(ctx.q_cmd, runner.grip, state)
             raise AttemptFailed("goal_not_reached", f"success held at rest for at most {gate.best} "
                                 f"consecutive steps after the motion ended, {settings.settle_steps} settling "
                                 f"steps included (needs {gate.hold_steps})")
@@ -234,8 +229,7 @@ class Executor:
             stage, reason = _MOTION_STAGES.get(fail.stage, fail.stage), fail.reason
         except SimulationError as fail:
             stage, reason = "sim_diverged", str(fail)
-        ok = verdict(recorder.t_violation, recorder.t_engage)
-        kept = stage is None and keep(gate.passed, recorder.first_violation)
+        ok, kept = runner.verdict, stage is None and runner.kept
         meta, grasp_id = None, ctx.memo.get("grasp_id")
         t_engage, t_violation = recorder.t_engage, recorder.first_violation
         if kept or keep_failed:
@@ -244,13 +238,8 @@ class Executor:
                                    variation=var.as_meta())
         else:
             recorder.discard()
-        return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, state.steps, ok,
+        return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, runner.steps, ok,
                              t_engage, t_violation, grasp_id, meta, timings)
-
-    def _success(self, ctx: Context) -> bool:
-        """The success column: goal predicate ∧ the skeleton's extra check ∧ the goal's objects at rest."""
-        return (bool(np.all(self._goal.labels())) and self.skeleton.success_extra(ctx)
-                and self._rest.at_rest(self.scene.data))
 
     # -- segments ------------------------------------------------------------------------------------------
     def _segment(self, seg: MotionSegment, ctx: Context, state: _Run) -> None:
@@ -260,7 +249,7 @@ class Executor:
                 self._step(ctx.q_cmd, grip, state)
             ctx.executed[seg.name] = JointTrajectory(ctx.q_cmd[None], 20.0, 0.0)
             return
-        with state.timings.measure("planning"):
+        with state.runner.timings.measure("planning"):
             traj = slowed(self._plan(seg, ctx), seg.speed)
         for q in traj.q[1:]:
             self._step(q, grip, state)
@@ -304,38 +293,21 @@ class Executor:
 
     # -- one control step ----------------------------------------------------------------------------------
     def _step(self, q: np.ndarray, grip: float, state: _Run) -> None:
-        action = np.empty(8, dtype=np.float32)
-        action[:7] = q
-        action[7] = grip
-        with state.timings.measure("physics"):
-            self.controller.apply(action)
-            self.controller.step()
-        encoding_before = state.timings.encoding
-        with state.timings.measure("rendering"):
-            monitor = state.recorder.record(action)
-        state.timings.rendering -= state.timings.encoding - encoding_before
-        state.ctx.q_cmd = np.asarray(q, dtype=np.float64).copy()
-        state.grip = grip
-        state.steps += 1
-        if monitor.t_violation is not None:
-            names = [cid for cid, t in state.recorder.first_violation.items() if t is not None]
-            raise AttemptFailed("unsafe", f"{', '.join(names)} violated at step {monitor.t_violation}")
-        if state.gate.update(state.recorder.success, state.holding):
+        out = state.runner.step(q, grip, state.holding)
+        state.ctx.q_cmd = state.runner.q_cmd
+        if out.end == "unsafe":
+            raise AttemptFailed("unsafe", str(out.reason))
+        if out.end == "passed":
             raise _GatePassed
-        if state.steps >= state.horizon:
-            raise AttemptFailed("timeout", f"horizon of {state.horizon} control steps reached")
+        if out.end == "timeout":
+            raise AttemptFailed("timeout", str(out.reason))
 
 
 @dataclass
 class _Run:
-    """Mutable per-attempt state of the executor loop."""
+    """Mutable per-attempt state of the executor loop: the context, the runner and whether the motion has
+    ended (only holding steps count towards the gate)."""
 
     ctx: Context
-    recorder: Recorder
-    gate: SuccessGate
-    timings: Timings
-    horizon: int
-    steps: int = 0
-    grip: float = 0.0
+    runner: EpisodeRunner
     holding: bool = False
-    """The current step is a holding step: the last motion segment has finished, the arm commanded still."""

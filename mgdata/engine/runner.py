@@ -2,16 +2,18 @@
 
 Every source of actions (the planner's executor, a teleoperated leader arm, a policy) steps the scene through
 the same code: apply the 8-D action and advance one control period; the recorder emits the frame, labels
-the new state, steps the monitor and the engagement tracker and evaluates the success predicate; the
-:class:`~mgdata.engine.gate.SuccessGate` counts the goal streak. The runner reports what ended the episode,
-in the executor's order: a violation (``unsafe``), then the gate (``passed``), then the horizon
-(``timeout``); the caller decides what to do about it (the executor raises, teleop shows a banner).
+the new state, steps the monitor and the engagement tracker and evaluates the success column (goal ∧ at
+rest, :mod:`mgdata.engine.success`); the :class:`~mgdata.engine.gate.SuccessGate` counts the streak of
+holding steps (the arm commanded still after the motion: the caller says which) on which it holds. The
+runner reports what ended the episode, in the executor's order: a violation (``unsafe``), then the gate
+(``passed``), then the horizon (``timeout``); the caller decides what to do about it (the executor raises,
+teleop shows a banner).
 
 Example::
 
     runner = EpisodeRunner(scene, recorder, SuccessGate(10), horizon=2000)
     runner.start()
-    while (out := runner.step(q, grip)).end is None:
+    while (out := runner.step(q, grip, holding=motion_done)).end is None:
         q, grip = next_command()
     meta = runner.finish(source="gello", seed=0, draw_index=0)   # or runner.discard()
 """
@@ -81,8 +83,9 @@ class EpisodeRunner:
         self.grip = 0.0
         return self.recorder.start()
 
-    def step(self, q: np.ndarray, grip: float) -> StepOutcome:
-        """Execute the action ``(q, grip)`` for one control period and record it."""
+    def step(self, q: np.ndarray, grip: float, holding: bool) -> StepOutcome:
+        """Execute the action ``(q, grip)`` for one control period and record it. ``holding``: this is a
+        step after the motion has ended, the arm commanded still (only such steps count towards the gate)."""
         action = np.empty(8, dtype=np.float32)
         action[:7] = q
         action[7] = grip
@@ -103,7 +106,7 @@ class EpisodeRunner:
             names = [cid for cid, step in rec.first_violation.items() if step is not None]
             return StepOutcome(monitor, success, engaged, "unsafe",
                                f"{', '.join(names)} violated at step {monitor.t_violation}")
-        if self.gate.update(success):
+        if self.gate.update(success, holding):
             return StepOutcome(monitor, success, engaged, "passed")
         if self.steps >= self.horizon:
             return StepOutcome(monitor, success, engaged, "timeout",
@@ -117,8 +120,8 @@ class EpisodeRunner:
 
     @property
     def kept(self) -> bool:
-        """The gate's decision so far: the goal held for the window and ν = 1."""
-        return keep(self.gate.passed, self.verdict)
+        """The gate's decision so far: success held at rest for the window, and no violation at any step."""
+        return keep(self.gate.passed, self.recorder.first_violation)
 
     def finish(self, *, seed: int, draw_index: int, source: str, stage: str | None = None,
                reason: str | None = None, **meta: Any) -> EpisodeMeta:

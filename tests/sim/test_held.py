@@ -60,7 +60,8 @@ def relative_motion(scene: Scene) -> tuple[float, float]:
 def lowest_box_point(m: mujoco.MjModel, d: mujoco.MjData) -> float:
     """World z of the carton's lowest corner (the table top is z = 0)."""
     box = m.geom("box/body").id
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * m.geom_size[box]
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    corners = signs * m.geom_size[box]
     return float((d.geom_xpos[box] + corners @ d.geom_xmat[box].reshape(3, 3).T)[:, 2].min())
 
 

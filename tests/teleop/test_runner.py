@@ -37,7 +37,7 @@ def test_frames_hold_the_measured_state_and_the_horizon_ends_it(scene: Scene) ->
     ends = []
     for k in range(6):
         q = HOME_Q + 0.02 * (k + 1)
-        ends.append(runner.step(q, 0.0).end)
+        ends.append(runner.step(q, 0.0, holding=False).end)
         measured.append(scene.data.qpos[arm_qpos_adr(scene.model)].copy())
     assert ends == [None] * 5 + ["timeout"]
     meta = runner.finish(seed=0, draw_index=0, source="gello", stage="timeout", reason="horizon")
@@ -51,8 +51,9 @@ def test_frames_hold_the_measured_state_and_the_horizon_ends_it(scene: Scene) ->
 def test_gate_passes_after_the_hold_window(scene: Scene) -> None:
     runner, _ = _runner(scene, success=True, hold=3)
     runner.start()
-    ends = [runner.step(HOME_Q, 0.0).end for _ in range(3)]
-    assert ends == [None, None, "passed"] and runner.kept
+    moving = [runner.step(HOME_Q, 0.0, holding=False).end for _ in range(2)]  # success while moving: no count
+    ends = [runner.step(HOME_Q, 0.0, holding=True).end for _ in range(3)]
+    assert moving == [None, None] and ends == [None, None, "passed"] and runner.kept
     assert runner.finish(seed=0, draw_index=0, source="gello").kept
 
 
@@ -61,7 +62,7 @@ def test_tipping_the_jar_is_unsafe_at_that_step(scene: Scene) -> None:
     constraint at the step where the tilt (computed here from the jar body's rotation) exceeds 30°."""
     runner, _ = _runner(scene, success=False, horizon=50)
     runner.start()
-    assert runner.step(HOME_Q, 0.0).end is None
+    assert runner.step(HOME_Q, 0.0, holding=True).end is None
     m, d = scene.model, scene.data
     body = scene.object_body("jar")
     jnt = m.body_jntadr[body]
@@ -75,6 +76,6 @@ def test_tipping_the_jar_is_unsafe_at_that_step(scene: Scene) -> None:
     mujoco.mj_forward(m, d)
     z = d.xmat[body].reshape(3, 3)[:, 2]
     assert np.degrees(np.arccos(z[2])) > 30.0
-    out = runner.step(HOME_Q, 0.0)
+    out = runner.step(HOME_Q, 0.0, holding=True)
     assert out.end == "unsafe" and "jar_stays_upright" in (out.reason or "")
     assert runner.recorder.first_violation["jar_stays_upright"] == 2  # s_2, observed after the 2nd step
