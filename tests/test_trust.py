@@ -49,7 +49,8 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _episodes(root: Path) -> list[dict]:
-    return [row for path in sorted(root.glob("meta/episodes/*/*.parquet")) for row in pq.read_table(path).to_pylist()]
+    files = sorted(root.glob("meta/episodes/*/*.parquet"))
+    return [row for path in files for row in pq.read_table(path).to_pylist()]
 
 
 def _model(root: Path, key: str) -> mujoco.MjModel:
@@ -64,8 +65,8 @@ def _model(root: Path, key: str) -> mujoco.MjModel:
 def _frames(root: Path, info: dict, episode: dict) -> dict[str, list]:
     path = root / info["data_path"].format(chunk_index=episode["data/chunk_index"],
                                            file_index=episode["data/file_index"])
-    table = pq.read_table(path, columns=["episode_index", "frame_index", "sim.physics_state", "safety.violated",
-                                         "safety.success"]).to_pydict()
+    columns = ["episode_index", "frame_index", "sim.physics_state", "safety.violated", "safety.success"]
+    table = pq.read_table(path, columns=columns).to_pydict()
     rows = [i for i, e in enumerate(table["episode_index"]) if e == episode["episode_index"]]
     rows.sort(key=lambda i: table["frame_index"][i])
     return {k: [v[i] for i in rows] for k, v in table.items()}
