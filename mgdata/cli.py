@@ -10,9 +10,9 @@ from __future__ import annotations
 import sys
 
 import typer
-from rich.console import Console
 
 from mgdata import __version__
+from mgdata.console import print_error
 from mgdata.errors import MgdataError
 
 app = typer.Typer(
@@ -64,5 +64,5 @@ def main() -> None:
     try:
         app()  # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
     except MgdataError as err:
-        Console(stderr=True).print(f"[bold red]error:[/] {err}", highlight=False, soft_wrap=True)
+        print_error(err)
         sys.exit(2)

@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 
+from mgdata.console import plain_console
 from mgdata.errors import RecipeError
 from mgdata.paths import datasets_dir
 
@@ -36,7 +36,8 @@ def register(app: typer.Typer) -> None:
         task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
         out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
         workers: Annotated[int | None, typer.Option(
-            help="Parallel attempt processes (default: one per CPU core; same output for any count).",
+            help="Parallel attempt processes, at least 1 (default: one per CPU core; same output for any "
+                 "count).",
             show_default=False)] = None,
         seed: Annotated[int, typer.Option(help="Seed mixed into every attempt's seed.")] = 0,
         keep_failed: Annotated[bool, typer.Option(help="Also keep failed/unsafe attempts, in <out>_failed.")]
@@ -55,9 +56,9 @@ def register(app: typer.Typer) -> None:
 
         job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks),
-                          workers=workers or len(os.sched_getaffinity(0)), seed=seed,
+                          workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
-        console = Console()
+        console = plain_console()
         with ProgressView(RunSummary(out=job.out, target=n), console) as view:
             summary = run(job, on_attempt=view.update)
         print_summary(summary, console)
@@ -78,4 +79,4 @@ def register(app: typer.Typer) -> None:
 
         chosen = parse_ids(episodes, "--episodes")
         path = render_preview(dataset, chosen, out or dataset / "preview.mp4")
-        Console().print(f"wrote {path}")
+        plain_console().print(f"wrote {path}")

@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from mgdata.console import plain_console
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp, GraspDB
 from mgdata.paths import grasps_dir
@@ -52,7 +52,7 @@ def register(app: typer.Typer) -> None:
             gs = db.grasps(key)
             counts = [sum(g.status == s for g in gs) for s in ("valid", "invalid", "unvalidated")]
             table.add_row(key, str(len(gs)), *map(str, counts), ", ".join(sorted({g.source for g in gs})))
-        Console().print(table)
+        plain_console().print(table)
 
     @grasps.command("generate")
     def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
