@@ -55,3 +55,11 @@ class MetricsError(MgdataError):
 
 class DeviceError(MgdataError):
     """A teleoperation device is missing or does not answer."""
+
+
+class OutputError(MgdataError):
+    """The output location cannot be written: not a folder, no permission, read-only, or disk full."""
+
+
+class WorkerError(MgdataError):
+    """An attempt worker process died (killed or crashed); what was committed before stays."""

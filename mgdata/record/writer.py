@@ -85,8 +85,10 @@ class DatasetWriter:
                preset: str | None = None, gop: int = 10, spec: SafetySpec | None = None,
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
-               video_file_seconds: float = layout.VIDEO_FILE_SECONDS) -> DatasetWriter:
-        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``.
+               video_file_seconds: float = layout.VIDEO_FILE_SECONDS,
+               mgdata: dict | None = None) -> DatasetWriter:
+        """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so are
+        the extra keys of ``mgdata`` (in its ``mgdata`` block; e.g. the generator's inputs digest).
 
         A folder holding only the work area of a ``create`` that was killed before its first commit counts
         as empty.
@@ -104,6 +106,7 @@ class DatasetWriter:
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds)
+        info["mgdata"].update({k: v for k, v in (mgdata or {}).items() if k not in info["mgdata"]})
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
         try:
