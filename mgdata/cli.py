@@ -19,7 +19,9 @@ app = typer.Typer(
     name="mgdata",
     help=(
         "Generate safety-annotated robot-manipulation demonstrations in MuJoCo and export them as LeRobot "
-        "datasets.\n\nExample: mgdata generate --family jar --n 40"
+        "datasets.\n\nExample: mgdata generate --family jar --n 40\n\n"
+        "Exit status: 0 done; 1 the answer is no (validate found problems, generate stopped short of --n); "
+        "2 bad input or unwritable output (one 'error:' line, nothing written is lost)."
     ),
     no_args_is_help=True,
     add_completion=False,
