@@ -1,8 +1,9 @@
 """The ``mgdata`` command line.
 
 Each command lives next to the code it drives (``mgdata/<area>/commands.py``) and is registered below, so
-this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) print one line and
-exit with status 2; anything else is a bug and keeps its traceback.
+this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) and operating-system
+errors (a path that cannot be read or written, a full disk) print one literal ``error:`` line and exit with
+status 2; anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -67,4 +68,8 @@ def main() -> None:
         app()  # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
     except MgdataError as err:
         print_error(err)
+        sys.exit(2)
+    except OSError as err:  # the environment: a path that cannot be read or written, a full disk …
+        where = f"{err.filename}: " if err.filename else ""
+        print_error(f"{where}{err.strerror or err}")
         sys.exit(2)

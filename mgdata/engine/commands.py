@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from mgdata.console import plain_console
-from mgdata.errors import RecipeError
+from mgdata.errors import OutputError, RecipeError
 from mgdata.paths import datasets_dir
 
 
@@ -78,5 +78,11 @@ def register(app: typer.Typer) -> None:
         from mgdata.engine.preview import render_preview
 
         chosen = parse_ids(episodes, "--episodes")
-        path = render_preview(dataset, chosen, out or dataset / "preview.mp4")
+        target = out or dataset / "preview.mp4"
+        if target.is_dir() or not target.parent.is_dir():
+            raise OutputError(f"--out {target}: expected a file path in an existing folder")
+        try:
+            path = render_preview(dataset, chosen, target)
+        except OSError as err:
+            raise OutputError(f"--out {target}: cannot write the preview ({err.strerror or err})") from None
         plain_console().print(f"wrote {path}")

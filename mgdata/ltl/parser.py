@@ -80,14 +80,14 @@ def parse(text: str) -> Formula:
         raise LtlLimitError(f"LTL_f formula {_shown(text)} is {len(text)} characters long; the limit is "
                             f"{MAX_LENGTH} (split it into several constraints)")
     tree = _Parser(text).parse()
-    if depth(tree) > MAX_DEPTH:
-        raise LtlLimitError(f"LTL_f formula {_shown(text)} nests {depth(tree)} operators deep; the limit is "
-                            f"{MAX_DEPTH} (a chain of n '&' or '|' counts n - 1; split it into several "
-                            "constraints)")
     aps = propositions(tree)
     if len(aps) > MAX_PROPOSITIONS:
         raise LtlLimitError(f"LTL_f formula {_shown(text)} uses {len(aps)} distinct propositions; the limit "
                             f"is {MAX_PROPOSITIONS} per constraint (split it into several constraints)")
+    if depth(tree) > MAX_DEPTH:
+        raise LtlLimitError(f"LTL_f formula {_shown(text)} nests {depth(tree)} operators deep; the limit is "
+                            f"{MAX_DEPTH} (a chain of n '&' or '|' counts n - 1; split it into several "
+                            "constraints)")
     return tree
 
 

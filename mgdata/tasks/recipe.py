@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -199,7 +200,7 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
 
 def _range(raw: Any, where: str) -> tuple[float, float]:
     ok = isinstance(raw, list) and len(raw) == 2 and all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in raw)
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in raw)
     if not ok or raw[0] > raw[1]:
         raise RecipeError(f"{where} = {raw!r}: expected [low, high] numbers with low <= high")
     return float(raw[0]), float(raw[1])
