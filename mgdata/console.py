@@ -17,8 +17,9 @@ from rich.console import Console
 
 
 def plain_console(*, stderr: bool = False, width: int | None = None) -> Console:
-    """A rich console with markup, highlighting and emoji codes off (tables still render)."""
-    return Console(stderr=stderr, width=width, markup=False, highlight=False, emoji=False)
+    """A rich console with markup, highlighting and emoji codes off, and lines never wrapped (a path stays
+    on one line, whole); tables still render to the terminal's width."""
+    return Console(stderr=stderr, width=width, markup=False, highlight=False, emoji=False, soft_wrap=True)
 
 
 def print_error(message: object) -> None:
