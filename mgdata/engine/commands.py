@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from mgdata.console import plain_console
-from mgdata.errors import OutputError, RecipeError
+from mgdata.errors import DatasetError, OutputError, RecipeError
 from mgdata.paths import datasets_dir
 
 
@@ -21,9 +21,13 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
     try:
         for part in text.split(","):
             lo, _, hi = part.strip().partition("-")
-            out += range(int(lo), int(hi or lo) + 1)
+            first, last = int(lo), int(hi or lo)
+            if last < first:
+                raise ValueError(part)
+            out += range(first, last + 1)
     except ValueError:
-        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7'") from None
+        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7' "
+                          "(each range low-high with low <= high)") from None
     return tuple(out)
 
 
@@ -78,6 +82,8 @@ def register(app: typer.Typer) -> None:
         from mgdata.engine.preview import render_preview
 
         chosen = parse_ids(episodes, "--episodes")
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
         target = out or dataset / "preview.mp4"
         if target.is_dir() or not target.parent.is_dir():
             raise OutputError(f"--out {target}: expected a file path in an existing folder")

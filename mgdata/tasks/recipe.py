@@ -45,6 +45,8 @@ from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_map
 from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
+MAX_IMAGE_SIZE = 2048
+"""Largest camera image side (pixels) a recipe may ask for (an offscreen framebuffer per worker)."""
 
 
 def _default_image_size() -> int:
@@ -126,8 +128,10 @@ def check_recipe_keys(recipe: Recipe, keys: RecipeKeys) -> Recipe:
 
 
 def load_recipe(family_or_path: str | Path) -> Recipe:
-    """Load and validate a recipe by family name or by path."""
-    path = Path(family_or_path) if str(family_or_path).endswith(".toml") else recipe_path(str(family_or_path))
+    """Load and validate a recipe by family name (a ``str`` not ending in ``.toml``) or by path (a ``Path``,
+    or a ``str`` ending in ``.toml``)."""
+    by_path = isinstance(family_or_path, Path) or str(family_or_path).endswith(".toml")
+    path = Path(family_or_path) if by_path else recipe_path(str(family_or_path))
     raw = _read_toml(path)
     src = str(path)
     family = _get(raw, "family", str, src)
@@ -186,9 +190,11 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
         if k in table:
             ints[k] = _get(table, k, int, where)
     for k, v in ints.items():
-        low = 0 if k in ("seed", "settle_steps") else 1
-        if v < low:
-            raise RecipeError(f"{where} {k} = {v} is out of range (expected an integer >= {low})")
+        low = 0 if k in ("seed", "settle_steps") else 8 if k == "image_size" else 1
+        high = MAX_IMAGE_SIZE if k == "image_size" else None
+        if v < low or (high is not None and v > high):
+            expected = f"an integer in [{low}, {high}]" if high else f"an integer >= {low}"
+            raise RecipeError(f"{where} {k} = {v} is out of range (expected {expected})")
     raw_cameras = table.get("cameras", list(CAMERAS))
     cameras = tuple(raw_cameras) if isinstance(raw_cameras, list) else ()
     bad = [c for c in cameras if c not in CAMERAS]
