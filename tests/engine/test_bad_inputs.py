@@ -286,3 +286,11 @@ def test_validate_exit_codes(demo_copy: tuple[Path, Path], tmp_path: Path) -> No
     _, out = demo_copy
     assert mgdata("validate", out).returncode == 0
     one_error(mgdata("validate", tmp_path / "nothing"), "no such dataset folder")
+
+
+def test_sweep_other_commands(tmp_path: Path) -> None:
+    """Found by the hostile sweep: each was a traceback or a silent success."""
+    one_error(mgdata("generate", "--n", "1", "--recipe", tmp_path), f"recipe {tmp_path}: cannot be read")
+    one_error(mgdata("generate", "--n", "1", "--tasks", "3-1"), "--tasks '3-1': expected 'all' or ids")
+    one_error(mgdata("preview", tmp_path / "nothing"), "no such dataset folder")
+    one_error(mgdata("grasps", "list", "--dir", tmp_path / "nothing"), "no such grasp database folder")
