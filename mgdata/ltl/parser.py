@@ -77,27 +77,27 @@ def parse(text: str) -> Formula:
     """Parse an LTL_f formula; raises :class:`LtlSyntaxError` naming the column and what was expected, or
     :class:`LtlLimitError` for a formula beyond the documented limits."""
     if len(text) > MAX_LENGTH:
-        raise LtlLimitError(f"LTL_f formula {_shown(text)} is {len(text)} characters long; the limit is "
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} is {len(text)} characters long; the limit is "
                             f"{MAX_LENGTH} (split it into several constraints)")
     tree = _Parser(text).parse()
     aps = propositions(tree)
     if len(aps) > MAX_PROPOSITIONS:
-        raise LtlLimitError(f"LTL_f formula {_shown(text)} uses {len(aps)} distinct propositions; the limit "
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} uses {len(aps)} distinct propositions; the limit "
                             f"is {MAX_PROPOSITIONS} per constraint (split it into several constraints)")
     if depth(tree) > MAX_DEPTH:
-        raise LtlLimitError(f"LTL_f formula {_shown(text)} nests {depth(tree)} operators deep; the limit is "
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} nests {depth(tree)} operators deep; the limit is "
                             f"{MAX_DEPTH} (a chain of n '&' or '|' counts n - 1; split it into several "
                             "constraints)")
     return tree
 
 
-def _shown(text: str) -> str:
+def quoted(text: str) -> str:
     """The formula for a message: quoted, cut to 60 characters."""
     return repr(text) if len(text) <= 60 else repr(text[:57]) + "…"
 
 
 def _error(text: str, pos: int, expected: str, found: str) -> LtlSyntaxError:
-    where = f"bad LTL_f formula {_shown(text)}: at column {pos + 1}"
+    where = f"bad LTL_f formula {quoted(text)}: at column {pos + 1}"
     return LtlSyntaxError(f"{where}: expected {expected}, found {found}")
 
 
@@ -118,7 +118,7 @@ class _Parser:
         """Open one more nesting level at ``token`` (bounded, so the recursion stays shallow)."""
         self.nesting += 1
         if self.nesting > MAX_DEPTH:
-            raise LtlLimitError(f"LTL_f formula {_shown(self.text)}: more than {MAX_DEPTH} levels of nesting "
+            raise LtlLimitError(f"LTL_f formula {quoted(self.text)}: more than {MAX_DEPTH} levels of nesting "
                                 f"at column {token.pos + 1}; the limit is {MAX_DEPTH}")
 
     def parse(self) -> Formula:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.errors import LtlLimitError
+from mgdata.ltl.parser import quoted
 from mgdata.ltl.syntax import Binary, Const, Formula, Prop, Unary
 
 Term = frozenset[int]  # atom 0: "a next step exists"; atom n + 1: "a next step, if any, satisfies node n"
@@ -43,7 +44,7 @@ _HAS_NEXT: Dnf = frozenset({frozenset({_NEXT})})
 
 MAX_STATES = 4096
 """Most states the (unminimised) progression automaton of one constraint may have."""
-MAX_WORK = 500_000
+MAX_WORK = 2_000_000
 """Most work units exploring one constraint may take: a successor computation costs ``1 + n (1 + m)``
 for ``n`` candidate terms reduced to ``m`` (the quadratic canonicalisation), plus ``a b`` for each product
 of an ``a``-term and a ``b``-term formula it forms."""
@@ -305,9 +306,9 @@ def explore(formula: Formula, aps: tuple[str, ...], text: str = "") -> RawAutoma
             if len(states) > MAX_STATES or progressor.work > MAX_WORK:
                 what = (f"more than {MAX_STATES} automaton states" if len(states) > MAX_STATES else
                         f"more than {MAX_WORK:,} work units to build its automaton")
-                raise LtlLimitError(f"LTL_f formula {text or str(formula)!r} is too complex to monitor: it "
-                                    f"needs {what}; split it into several constraints or use fewer nested "
-                                    "X/U/F/G operators")
+                shown = quoted(text or str(formula))
+                raise LtlLimitError(f"LTL_f formula {shown} is too complex to monitor: it needs {what}; "
+                                    "split it into several constraints or use fewer nested X/U/F/G operators")
         rows.append(lut[letters & mask])
         i += 1
     accepting = np.array([any(_NEXT not in term for term in s) for s in states], dtype=bool)
