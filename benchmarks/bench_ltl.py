@@ -2,19 +2,24 @@
 
 Targets (issue 2): compile ≤ 50 ms per family spec; ≥ 1,000,000 vectorised steps/s for one constraint;
 ≤ 2 µs per Python-level ``dfa.step``; ``mon.step`` on the jar spec a few µs (the 20 Hz step budget of
-labelling + monitor is 100 µs).
+labelling + monitor is 100 µs). Issue 8: compile time stays bounded at the formula limits (``docs/ltl.md``):
+``bench_limits`` grows adversarial formula families until the compiler refuses them and prints the slowest
+accepted compile of each.
 
 Run: ``.venv/bin/python benchmarks/bench_ltl.py``
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 
 import numpy as np
 
+from mgdata.errors import LtlLimitError
 from mgdata.ltl import Monitor, compile_ltlf
+from mgdata.ltl.parser import MAX_PROPOSITIONS
 from mgdata.spec import Constraint, SafetySpec, family_spec, known_families
 
 
@@ -97,7 +102,45 @@ def bench_single_step() -> None:
           f"{best_of(mon_steps) / (n // 4) * 1e6:.2f} µs")
 
 
+LIMIT_FAMILIES: dict[str, Callable[[int], str]] = {
+    "F p0 & … & F pk": lambda k: " & ".join(f"F p{i}" for i in range(k)),
+    "G F p0 & … & G F pk": lambda k: " & ".join(f"G F p{i}" for i in range(k)),
+    "G((p0 -> F p1) & …)": lambda k: "G(" + " & ".join(f"(p{i} -> F p{i + 1})" for i in range(k - 1)) + ")",
+    "(p0 W p1) & (p1 W p2) & …": lambda k: " & ".join(f"(p{i} W p{i + 1})" for i in range(k - 1)),
+    "G(a -> X X … X b), n X": lambda n: "G(a -> " + "X " * n + "b)",
+    "F(a & X F(a & X F …)), n F": lambda n: "F(a & X " * (n - 1) + "F a" + ")" * (n - 1),
+    "G(a -> (b U (c U … ))), n U": lambda n: "G(a -> " + " U ".join(f"p{i % 6}" for i in range(n + 1)) + ")",
+}
+
+
+def bench_limits() -> None:
+    print(f"compile time at the limits (<= {MAX_PROPOSITIONS} propositions, bounded automaton size): each "
+          "family grows until refused")
+    worst = 0.0
+    for label, make in LIMIT_FAMILIES.items():
+        slowest, largest, refused = 0.0, 0, None
+        for n in range(2, 33):
+            formula = make(n)
+            compile_ltlf.cache_clear()
+            start = time.perf_counter()
+            try:
+                compile_ltlf(formula)
+            except LtlLimitError as err:
+                why = str(err).split(": ")[-1][:40]
+                refused = f"refused at n={n} in {time.perf_counter() - start:.2f} s ({why}…)"
+                break
+            slowest, largest = max(slowest, time.perf_counter() - start), n
+        worst = max(worst, slowest)
+        print(f"  {label:<28} accepted up to n={largest}, slowest {slowest:5.2f} s; "
+              f"{refused or 'never refused'}")
+    print(f"  slowest accepted compile over all families: {worst:.2f} s")
+
+
 if __name__ == "__main__":
+    if "--limits" in sys.argv:
+        bench_limits()
+        sys.exit()
     bench_compile()
     bench_throughput()
     bench_single_step()
+    bench_limits()

@@ -1,8 +1,9 @@
 """The ``mgdata`` command line.
 
 Each command lives next to the code it drives (``mgdata/<area>/commands.py``) and is registered below, so
-this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) print one line and
-exit with status 2; anything else is a bug and keeps its traceback.
+this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) and operating-system
+errors (a path that cannot be read or written, a full disk) print one literal ``error:`` line and exit with
+status 2; anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -10,16 +11,18 @@ from __future__ import annotations
 import sys
 
 import typer
-from rich.console import Console
 
 from mgdata import __version__
+from mgdata.console import print_error
 from mgdata.errors import MgdataError
 
 app = typer.Typer(
     name="mgdata",
     help=(
         "Generate safety-annotated robot-manipulation demonstrations in MuJoCo and export them as LeRobot "
-        "datasets.\n\nExample: mgdata generate --family jar --n 40"
+        "datasets.\n\nExample: mgdata generate --family jar --n 40\n\n"
+        "Exit status: 0 done; 1 the answer is no (validate found problems, generate stopped short of --n); "
+        "2 bad input or unwritable output (one 'error:' line, nothing written is lost)."
     ),
     no_args_is_help=True,
     add_completion=False,
@@ -66,5 +69,9 @@ def main() -> None:
     try:
         app()  # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
     except MgdataError as err:
-        Console(stderr=True).print(f"[bold red]error:[/] {err}", highlight=False, soft_wrap=True)
+        print_error(err)
+        sys.exit(2)
+    except OSError as err:  # the environment: a path that cannot be read or written, a full disk …
+        where = f"{err.filename}: " if err.filename else ""
+        print_error(f"{where}{err.strerror or err}")
         sys.exit(2)

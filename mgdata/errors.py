@@ -13,6 +13,12 @@ class LtlSyntaxError(MgdataError):
     """An LTL_f formula does not parse; the message gives the position and what was expected."""
 
 
+class LtlLimitError(LtlSyntaxError):
+    """An LTL_f formula exceeds a documented limit (length, nesting depth, propositions per constraint,
+    automaton size); a subclass of :class:`LtlSyntaxError` so every place that reports bad formulas reports
+    it."""
+
+
 class SpecError(MgdataError):
     """A safety specification is malformed (unknown proposition, evaluator, parameter type …)."""
 
@@ -55,3 +61,11 @@ class MetricsError(MgdataError):
 
 class DeviceError(MgdataError):
     """A teleoperation device is missing or does not answer."""
+
+
+class OutputError(MgdataError):
+    """The output location cannot be written: not a folder, no permission, read-only, or disk full."""
+
+
+class WorkerError(MgdataError):
+    """An attempt worker process died (killed or crashed); what was committed before stays."""

@@ -166,6 +166,12 @@ def load_records(path: Path) -> list[RolloutRecord]:
         lines = path.read_text(encoding="utf-8").splitlines()
     except FileNotFoundError:
         raise MetricsError(f"records file {path} does not exist") from None
+    except UnicodeDecodeError as err:
+        raise MetricsError(f"{path}: not a UTF-8 text file (byte {err.start}); expected JSON lines") from None
+    except IsADirectoryError:
+        raise MetricsError(f"{path}: is a folder; expected a JSON-lines records file") from None
+    except OSError as err:
+        raise MetricsError(f"records file {path} cannot be read ({err.strerror or err})") from None
     records = []
     for i, line in enumerate(lines, start=1):
         if not line.strip():

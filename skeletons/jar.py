@@ -25,7 +25,7 @@ import numpy as np
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
 from mgdata.engine.gate import AttemptFailed
-from mgdata.engine.skeleton import FamilySkeleton, register
+from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
 from mgdata.grasps.db import Grasp
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
 
@@ -40,6 +40,42 @@ class JarSkeleton(FamilySkeleton):
     """The jar family's demonstration (see the module docstring)."""
 
     family = "jar"
+    recipe_keys = RecipeKeys(
+        params=(
+            Param("lid_push_clear", float, "m between fingers and the open lid's back face at the push start",
+                  0.0, 0.1),
+            Param("lid_finger_depth", float, "m from the TCP to the fingers' pushing face, along the push",
+                  0.0, 0.05),
+            Param("fingertip_below_tcp", float, "m the fingertips reach past the TCP", 0.0, 0.05),
+            Param("palm_depth", float, "m from the TCP back to the palm", 0.0, 0.1),
+            Param("lid_palm_clear", float, "m kept between the palm and the lid's top edge while pushing",
+                  0.0, 0.1),
+            Param("lid_descend", float, "m the fingers descend to the push height from above", 0.0, 0.3),
+            Param("lid_settle_steps", int, "control steps holding the push's end", 0, 200),
+            Param("open_steps", int, "control steps to open the gripper", 1, 200),
+            Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
+            Param("close_steps", int, "control steps to close the gripper on the jar", 1, 200),
+            Param("carry_speed", float, "fraction of the planned speed while carrying the jar", 0.01, 1.0),
+            Param("goal_hold_steps", int, "control steps holding the jar in the goal", 1, 2000),
+            Param("grasp_margin", float, "rad every joint of a reachable grasp keeps from its limits",
+                  0.0, 1.0),
+            Param("grasp_clearance", float, "m a reachable grasp keeps the arm from all but the jar",
+                  0.0, 0.05),
+            Param("reach_standoff", float, "m pre-grasp standoff used to test which grasps are reachable",
+                  0.0, 0.3),
+            Param("carry_yaws_deg", tuple, "turns of the jar about the vertical tried for the goal (deg)",
+                  -180.0, 180.0),
+        ),
+        variation=(
+            Knob("lid_push_frac", "push point above the hinge, as a fraction of the lid's length", 0.0, 1.0),
+            Knob("lid_push_past", "degrees past vertical at which the push stops", 0.0, 60.0),
+            Knob("grasp_standoff", "m back along the approach axis for the pre-grasp pose", 0.0, 0.3),
+            Knob("grasp_height", "m offset of the grasp along the jar axis", -0.05, 0.05),
+            Knob("lift_height", "m the jar's bottom is lifted above the table before carrying", 0.0, 0.3),
+            Knob("goal_dx", "m offset of the carried jar's centre from the goal centre along x", -0.05, 0.05),
+            Knob("goal_dy", "m offset of the carried jar's centre from the goal centre along y", -0.05, 0.05),
+        ),
+    )
 
     def __init__(self) -> None:
         self._reachable: dict[int, tuple[Grasp, ...]] = {}

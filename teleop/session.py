@@ -36,6 +36,7 @@ from mgdata.engine.executor import dataset_schema
 from mgdata.engine.gate import SuccessGate
 from mgdata.engine.generate import failed_path
 from mgdata.engine.runner import EpisodeRunner, StepOutcome
+from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.success import SuccessCheck
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.record.commit import work_dir
@@ -47,7 +48,6 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from mgdata.tasks.base import base_task
-from mgdata.tasks.recipe import load_recipe
 from teleop.config import load_teleop_config
 from teleop.mapping import Mapper, StepEvents
 from teleop.reader import LeaderReader
@@ -130,7 +130,7 @@ class TeleopSession:
             raise RecipeError(f"--arm {job.arm} does not match the calibration file (a {mapper.arm} device)")
         self.job, self.mapper, self.calibration, self.reader = job, mapper, calibration, reader
         self.on_status, self.on_step = on_status, on_step
-        self.recipe = load_recipe(job.family)
+        self.recipe = load_family_recipe(job.family)
         if not 0 <= job.task < self.recipe.tasks.count:
             raise RecipeError(f"--task {job.task}: the {job.family} recipe has tasks 0 … "
                               f"{self.recipe.tasks.count - 1}")

@@ -7,9 +7,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 
-from mgdata.errors import RecipeError
+from mgdata.console import plain_console
+from mgdata.errors import DatasetError, OutputError, RecipeError
 from mgdata.paths import datasets_dir
 
 
@@ -21,9 +21,13 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
     try:
         for part in text.split(","):
             lo, _, hi = part.strip().partition("-")
-            out += range(int(lo), int(hi or lo) + 1)
+            first, last = int(lo), int(hi or lo)
+            if last < first:
+                raise ValueError(part)
+            out += range(first, last + 1)
     except ValueError:
-        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7'") from None
+        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7' "
+                          "(each range low-high with low <= high)") from None
     return tuple(out)
 
 
@@ -36,7 +40,8 @@ def register(app: typer.Typer) -> None:
         task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
         out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
         workers: Annotated[int | None, typer.Option(
-            help="Parallel attempt processes (default: one per CPU core; same output for any count).",
+            help="Parallel attempt processes, at least 1 (default: one per CPU core; same output for any "
+                 "count).",
             show_default=False)] = None,
         seed: Annotated[int, typer.Option(help="Seed mixed into every attempt's seed.")] = 0,
         keep_failed: Annotated[bool, typer.Option(help="Also keep failed/unsafe attempts, in <out>_failed.")]
@@ -55,9 +60,9 @@ def register(app: typer.Typer) -> None:
 
         job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks),
-                          workers=workers or len(os.sched_getaffinity(0)), seed=seed,
+                          workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
-        console = Console()
+        console = plain_console()
         with ProgressView(RunSummary(out=job.out, target=n), console) as view:
             summary = run(job, on_attempt=view.update)
         print_summary(summary, console)
@@ -77,5 +82,13 @@ def register(app: typer.Typer) -> None:
         from mgdata.engine.preview import render_preview
 
         chosen = parse_ids(episodes, "--episodes")
-        path = render_preview(dataset, chosen, out or dataset / "preview.mp4")
-        Console().print(f"wrote {path}")
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
+        target = out or dataset / "preview.mp4"
+        if target.is_dir() or not target.parent.is_dir():
+            raise OutputError(f"--out {target}: expected a file path in an existing folder")
+        try:
+            path = render_preview(dataset, chosen, target)
+        except OSError as err:
+            raise OutputError(f"--out {target}: cannot write the preview ({err.strerror or err})") from None
+        plain_console().print(f"wrote {path}")

@@ -1,11 +1,18 @@
 """One generation run: attempts in canonical order until the dataset holds the target number of kept demos.
 
-The dataset at ``out`` is created or resumed (its writer recovers from a killed run). Its generator state
-(``meta/mgdata_generate.json``: family, user seed, recipe digest, per-task draw cursor, attempts) must agree
-with the run, and every episode already in it must carry the seed that (task, draw, --seed) gives, so a
-resumed run can neither reuse a draw nor mix seeds. Kept attempts are appended to ``out``; with
-``keep_failed`` the others go to ``<out>_failed`` with their labels and failure stage; otherwise they are
-dropped. Ctrl-C stops at once: everything committed stays, and re-running the command continues.
+Every input is checked in this process before any dataset is created or any worker starts: the recipe
+against its skeleton's declared keys, the spec's formulas (compiled), the grasp database, the selected base
+tasks, and the output folder. The dataset at ``out`` is then created or resumed (its writer recovers from a
+killed run). Its identity (family, user seed, inputs digest) is written into ``meta/info.json`` when the
+dataset is created, so it cannot be lost separately from the data; a run with other inputs is refused. The
+generator state (``meta/mgdata_generate.json``: per-task draw cursor, attempts) is caught up from the
+dataset on every start (a ``kill -9`` between a commit and the state's save leaves it one attempt behind),
+and every episode already in the dataset must carry the seed that (task, draw, --seed) gives, so a resumed
+run can neither reuse a draw nor mix seeds. Kept attempts are appended to ``out``; with ``keep_failed`` the
+others go to ``<out>_failed`` with their labels and failure stage; otherwise they are dropped. Ctrl-C stops
+at once: everything committed stays, and re-running the command continues. An output that cannot be
+written (not a folder, read-only, disk full) is an :class:`OutputError`; the attempt whose commit failed is
+not counted and is attempted again on resume.
 
 Example::
 
@@ -14,6 +21,7 @@ Example::
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import os
 import shutil
@@ -25,18 +33,23 @@ from pathlib import Path
 from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.resume import DrawCursor, RunState
+from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.summary import RunSummary
 from mgdata.engine.variation import attempt_seed
 from mgdata.engine.workers import AttemptPool, WorkerConfig
-from mgdata.errors import DatasetError, RecipeError
+from mgdata.errors import DatasetError, GraspDBError, OutputError, RecipeError
+from mgdata.grasps.db import GraspDB
 from mgdata.interrupts import sigint_deferred
+from mgdata.ltl import Monitor
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record import layout
 from mgdata.record.commit import work_dir
-from mgdata.record.episode import EpisodeMeta
+from mgdata.record.episode import DatasetSchema, EpisodeMeta
+from mgdata.record.metafiles import read_info
 from mgdata.record.writer import DatasetWriter
 from mgdata.sim.config import SIM_TOML
-from mgdata.tasks.recipe import Recipe, load_recipe
+from mgdata.tasks.base import base_task
+from mgdata.tasks.recipe import Recipe
 
 STATE_FILE = "meta/mgdata_generate.json"
 
@@ -106,63 +119,154 @@ def inputs_digest(recipe: Recipe, grasps: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None = None) -> RunSummary:
-    """Run until the dataset holds ``job.n`` kept episodes, ``max_attempts`` are spent, or Ctrl-C."""
+def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
+    """Load and check every input an attempt worker will read, in this process, so bad input is one error
+    before any dataset or worker exists: the recipe (against its skeleton's keys), the spec (each constraint
+    compiled), the grasp database, the options, and the selected base tasks (their layout)."""
     if job.n < 1:
         raise RecipeError(f"--n must be at least 1, got {job.n}")
     if job.workers < 1:
         raise RecipeError(f"--workers must be at least 1, got {job.workers}")
-    recipe = load_recipe(job.recipe or job.family)
+    if job.seed < 0:
+        raise RecipeError(f"--seed must be >= 0, got {job.seed}")
+    if job.max_attempts is not None and job.max_attempts < 1:
+        raise RecipeError(f"--max-attempts must be at least 1, got {job.max_attempts}")
+    recipe = load_family_recipe(job.recipe or job.family)
     if recipe.family != job.family:
         raise RecipeError(f"{recipe.path} is a {recipe.family!r} recipe, not {job.family!r}")
     tasks = _tasks(job, recipe)
+    Monitor(recipe.spec)  # compiles every constraint (cached for this process)
+    grasps = Path(job.grasps or grasps_dir())
+    if not grasps.is_dir():
+        raise GraspDBError(f"grasp database folder {grasps} does not exist")
+    GraspDB.load_dir(grasps)
+    for task_id in tasks:
+        base_task(recipe, task_id)
+    return recipe, tasks, grasps
+
+
+def _writable_dir(path: Path, option: str) -> Path:
+    """``path`` as an existing folder this process can write into, or :class:`OutputError` saying why not."""
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"{option} {path}: is a file, not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"{option} {path}: cannot create the folder ({err.strerror or err})") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {path}: no permission to write into the folder")
+    return path
+
+
+def _output_error(err: OSError, out: Path) -> OutputError:
+    where = err.filename or out
+    return OutputError(f"cannot write the dataset {out}: {where}: {err.strerror or err}; everything "
+                       "committed before is kept: fix the cause and run the same command again to resume")
+
+
+def _open_dataset(root: Path, schema: DatasetSchema, job: GenerateJob, recipe: Recipe,
+                  identity: RunState, *, kept_only: bool) -> DatasetWriter:
+    """Create the dataset (its ``info.json`` records ``identity`` and the gate's promises: ``hold_steps``,
+    ``kept_only``) or resume it (``identity`` must match)."""
+    record = {"generator": {"family": identity.family, "seed": identity.seed,
+                            "inputs_digest": identity.inputs_digest}}
+    writer = DatasetWriter.open_or_create(root, schema, codec=job.codec, spec=recipe.spec, mgdata=record,
+                                          hold_steps=recipe.tasks.hold_steps, kept_only=kept_only)
+    try:
+        _check_identity(root, identity, writer.num_episodes)
+    except BaseException:
+        writer.close()
+        raise
+    return writer
+
+
+def _check_identity(root: Path, identity: RunState, episodes: int) -> None:
+    """The dataset's recorded generator identity (``info.json``) must be this run's."""
+    path = root / layout.INFO_PATH
+    raw = read_info(path)["mgdata"].get("generator")
+    if raw is None:  # written before the identity lived in info.json: the state file is all there is
+        if episodes and not (root / STATE_FILE).exists():
+            raise DatasetError(f"{path}: records no generator inputs, and {STATE_FILE} is gone; this run "
+                               "cannot tell whether it would mix inputs: use a new --out")
+        return
+    try:
+        recorded = RunState(str(raw["family"]), int(raw["seed"]), str(raw["inputs_digest"]))
+    except (KeyError, TypeError, ValueError) as err:
+        raise DatasetError(f"{path}: mgdata.generator is malformed ({err!r}); use a new --out") from None
+    recorded.check_compatible(identity, path)
+
+
+def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None = None) -> RunSummary:
+    """Run until the dataset holds ``job.n`` kept episodes, ``max_attempts`` are spent, or Ctrl-C.
+
+    ``on_attempt(summary)`` is called once when the attempts start (inputs checked, dataset open) and after
+    every committed attempt.
+    """
+    recipe, tasks, grasps = check_inputs(job)
     schema = dataset_schema(recipe)
     out = Path(job.out)
-    writer = DatasetWriter.open_or_create(out, schema, codec=job.codec, spec=recipe.spec,
-                                          hold_steps=recipe.tasks.hold_steps, kept_only=True)
+    identity = RunState(job.family, job.seed, inputs_digest(recipe, grasps))
+    try:
+        _writable_dir(out, "--out")
+        writer = _open_dataset(out, schema, job, recipe, identity, kept_only=True)
+    except OSError as err:
+        raise _output_error(err, out) from None
     failed: DatasetWriter | None = None
     summary = RunSummary(out=out, target=job.n, kept_before=writer.num_episodes)
     start = time.perf_counter()
     try:
         neg_root = failed_path(out)
         if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
-            failed = DatasetWriter.open_or_create(neg_root, schema, codec=job.codec, spec=recipe.spec,
-                                                  hold_steps=recipe.tasks.hold_steps)
+            failed = _open_dataset(_writable_dir(neg_root, "--keep-failed"), schema, job, recipe, identity,
+                                   kept_only=False)
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
-        state = RunState(job.family, job.seed, inputs_digest(recipe, Path(job.grasps or grasps_dir())))
         remove_stale_temps(state_path)  # a save cut short by kill -9 (the writer's lock is ours now)
         saved = RunState.load(state_path)
+        state = copy.deepcopy(identity)
         if saved is not None:
-            saved.check_compatible(state, state_path)
-            state = saved
+            saved.check_compatible(identity, state_path)
+            state = copy.deepcopy(saved)
         metas = writer.episodes_meta() + (failed.episodes_meta() if failed else [])
         _check_episodes(metas, job, out)
-        # A kill -9 between an episode's commit and the state file's update leaves the state one attempt
-        # behind the dataset: catch it up from what the dataset records.
+        # A kill -9 between an episode's commit and the state file's update leaves the state behind the
+        # dataset: catch it up from what the dataset records, and save the repaired state right away.
         state.attempts = max(state.attempts, writer.recorded_attempts)
         for m in metas:
             state.next_draw[m.task_id] = max(state.next_draw.get(m.task_id, 0), m.draw_index + 1)
+        if state != saved:
+            state.save(state_path)
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
         missing = max(0, job.n - writer.num_episodes)
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
         # per-run folder under staging/ (which the writer's open() clears after a crash)
         stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
-        config = WorkerConfig(recipe.path, Path(job.grasps or grasps_dir()), stage_dir, job.seed,
-                              job.keep_failed, writer.video)
+        config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary
+        if on_attempt is not None:
+            on_attempt(summary)  # inputs checked, dataset open: the run starts
         _loop(job, cursor, config, budget, writer, failed, state, state_path, summary, start, on_attempt)
     except KeyboardInterrupt:
         summary.stopped = "interrupted"
+    except OSError as err:
+        raise _output_error(err, out) from None
     finally:
         summary.wall = time.perf_counter() - start
         with sigint_deferred(reraise=False):
-            writer.close()
-            if failed is not None:
-                failed.close()
+            _close(writer, failed, out)
     return summary
+
+
+def _close(writer: DatasetWriter, failed: DatasetWriter | None, out: Path) -> None:
+    for w in (writer, failed):
+        if w is None:
+            continue
+        try:
+            w.close()
+        except OSError as err:
+            raise _output_error(err, out) from None
 
 
 def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: int, writer: DatasetWriter,
@@ -186,12 +290,16 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                     # the count goes into the commit itself, so a kill -9 before the state file is saved
                     # loses no kept attempt from it (resume takes the larger count)
                     writer.record_attempts(state.attempts + 1)
-                    if result.kept and done.staged is not None:
-                        writer.append_staged(done.staged)
-                    elif done.staged is not None and failed is not None and job.keep_failed:
-                        failed.append_staged(done.staged)
-                    elif done.staged is not None:
-                        shutil.rmtree(done.staged, ignore_errors=True)
+                    try:
+                        if result.kept and done.staged is not None:
+                            writer.append_staged(done.staged)
+                        elif done.staged is not None and failed is not None and job.keep_failed:
+                            failed.append_staged(done.staged)
+                        elif done.staged is not None:
+                            shutil.rmtree(done.staged, ignore_errors=True)
+                    except BaseException:  # not committed (disk full …): not counted, drawn again on resume
+                        writer.record_attempts(state.attempts)
+                        raise
                     state.next_draw[result.task_id] = max(state.next_draw.get(result.task_id, 0),
                                                           result.draw + 1)
                     state.attempts += 1

@@ -4,7 +4,7 @@ Example::
 
     summary = RunSummary(out=Path("datasets/jar"), target=40)
     summary.add(result, write_seconds=0.2)
-    print_summary(summary, Console())
+    print_summary(summary, plain_console())
 """
 
 from __future__ import annotations
@@ -80,9 +80,11 @@ def _fmt_time(seconds: float | None) -> str:
 
 
 class ProgressView:
-    """A rich progress bar: kept / target, attempts, yield, ETA."""
+    """A rich progress bar: kept / target, attempts, yield, ETA. It appears on the first :meth:`update`
+    (when the run has started), so a run refused for bad input prints only its error line."""
 
     def __init__(self, summary: RunSummary, console: Console) -> None:
+        self._started = False
         self._progress = Progress(
             TextColumn("[bold]{task.description}"), BarColumn(),
             TextColumn("{task.completed}/{task.total} kept · {task.fields[attempts]} attempted"),
@@ -92,15 +94,19 @@ class ProgressView:
             "generate", total=summary.target, completed=summary.total_kept, attempts=0, yield_="–", eta="–")
 
     def __enter__(self) -> ProgressView:
-        self._progress.start()
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
+        if not self._started:
+            return
         if exc_type is not None and issubclass(exc_type, MgdataError):
             self._progress.live.transient = True  # bad input: leave only the error line on screen
         self._progress.stop()
 
     def update(self, summary: RunSummary) -> None:
+        if not self._started:
+            self._started = True
+            self._progress.start()
         self._progress.update(self._task, completed=summary.total_kept, attempts=summary.attempts,
                               yield_=f"{summary.yield_:.0%}" if summary.attempts else "–",
                               eta=_fmt_time(summary.eta()))

@@ -6,6 +6,11 @@ the dataset is byte-identical whatever the number of workers. A worker keeps a f
 planner, renderer) for recently used tasks. Worker processes are started with ``spawn`` (a fresh interpreter:
 no inherited OpenGL or OMPL state) and ignore Ctrl-C; the main process handles it and terminates them.
 
+The pool fails fast: a worker whose start-up raises (a bad input the main process did not catch) hands that
+error to the first attempt it is given, which re-raises it in the main process; a worker that dies (killed,
+crashed) breaks the pool and the run ends with :class:`WorkerError`. Workers are never respawned, so a
+start-up that always fails cannot loop.
+
 Example::
 
     with AttemptPool(config, workers=2) as pool:
@@ -21,17 +26,19 @@ import ctypes
 import multiprocessing as mp
 import signal
 import sys
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 from mgdata.engine.executor import AttemptResult, Executor
+from mgdata.engine.skeleton import load_family_recipe
+from mgdata.errors import WorkerError
 from mgdata.grasps.db import GraspDB
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.video import VideoSettings
 from mgdata.tasks.base import base_task
-from mgdata.tasks.recipe import load_recipe
 
 _PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
@@ -65,7 +72,7 @@ class Worker:
         from mgdata.engine.executor import dataset_schema
 
         self.config = config
-        self.recipe = load_recipe(config.recipe_path)
+        self.recipe = load_family_recipe(config.recipe_path)
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
         self._executors: collections.OrderedDict[int, Executor] = collections.OrderedDict()
@@ -98,6 +105,7 @@ class Worker:
 
 
 _WORKER: Worker | None = None
+_START_ERROR: BaseException | None = None
 
 
 def _die_with_parent() -> None:
@@ -109,13 +117,20 @@ def _die_with_parent() -> None:
 
 
 def _init_worker(config: WorkerConfig) -> None:
-    global _WORKER
+    """Build this process's :class:`Worker`; a failure is kept and raised by every attempt (never a crash
+    at start-up, which a pool would answer with a new process failing the same way)."""
+    global _WORKER, _START_ERROR
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
-    _WORKER = Worker(config)
+    try:
+        _WORKER = Worker(config)
+    except Exception as err:  # handed to the main process with the first attempt
+        _START_ERROR = err
 
 
 def _run_in_worker(task_id: int, draw: int) -> AttemptDone:
+    if _START_ERROR is not None:
+        raise _START_ERROR
     assert _WORKER is not None
     return _WORKER.run(task_id, draw)
 
@@ -132,32 +147,60 @@ class AttemptPool:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self.capacity = 1 if workers == 1 else 2 * workers
-        self._queue: collections.deque[tuple[int, int, Any]] = collections.deque()
+        self._queue: collections.deque[tuple[int, int, Future[AttemptDone] | None]] = collections.deque()
         self._local = Worker(config) if workers == 1 else None
-        self._pool = None if workers == 1 else mp.get_context("spawn").Pool(
-            workers, initializer=_init_worker, initargs=(config,), maxtasksperchild=None)
+        self._pool = None if workers == 1 else ProcessPoolExecutor(
+            workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(config,))
 
     @property
     def in_flight(self) -> int:
         return len(self._queue)
 
     def submit(self, task_id: int, draw: int) -> None:
-        handle = None if self._pool is None else self._pool.apply_async(_run_in_worker, (task_id, draw))
+        handle = None if self._pool is None else self._submit(task_id, draw)
         self._queue.append((task_id, draw, handle))
 
+    def _submit(self, task_id: int, draw: int) -> Future[AttemptDone]:
+        assert self._pool is not None
+        try:
+            return self._pool.submit(_run_in_worker, task_id, draw)
+        except BrokenProcessPool:
+            raise self._died() from None
+
     def next_done(self) -> AttemptDone:
-        """The oldest submitted attempt, waiting for it if needed."""
+        """The oldest submitted attempt, waiting for it if needed.
+
+        Raises:
+            WorkerError: a worker process died (killed or crashed) before returning it.
+        """
         task_id, draw, handle = self._queue.popleft()
         if handle is None:
             assert self._local is not None
             return self._local.run(task_id, draw)
-        return handle.get()
+        try:
+            return handle.result()
+        except BrokenProcessPool:
+            raise self._died() from None
+
+    def _died(self) -> WorkerError:
+        codes = sorted({p.exitcode for p in self._processes() if p.exitcode not in (None, 0)})
+        how = f" (exit code {', '.join(map(str, codes))})" if codes else ""
+        return WorkerError(f"a worker process died{how}; everything committed so far is kept, run the same "
+                           "command again to resume (with --workers 1 to see the error in this process)")
+
+    def _processes(self) -> list[mp.process.BaseProcess]:
+        # ProcessPoolExecutor has no public way to kill its workers before Python 3.14
+        return list((getattr(self._pool, "_processes", None) or {}).values())
 
     def close(self) -> None:
         """Stop the workers, killing attempts still in flight (their results are no longer wanted)."""
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
+            procs = self._processes()
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            for p in procs:
+                p.terminate()
+            for p in procs:
+                p.join()
             self._pool = None
         if self._local is not None:
             self._local.close()

@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from mgdata.console import plain_console
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp, GraspDB
 from mgdata.paths import grasps_dir
@@ -24,6 +24,18 @@ from mgdata.paths import grasps_dir
 Dir = Annotated[Path | None, typer.Option("--dir", help="Grasp DB folder (default: the project's grasps/).")]
 Models = Annotated[list[str] | None, typer.Argument(help="Models or globs, e.g. 'jar/*' (default: all).")]
 All = Annotated[bool, typer.Option("--all", help="Re-check grasps that already have a result.")]
+
+
+def _db_dir(directory: Path | None, create: bool = False) -> Path:
+    """The grasp DB folder (``--dir`` or the project's), which must exist unless ``create``."""
+    root = directory or grasps_dir()
+    if root.exists() and not root.is_dir():
+        raise GraspDBError(f"--dir {root}: is a file, not a folder")
+    if not root.exists():
+        if not create:
+            raise GraspDBError(f"--dir {root}: no such grasp database folder")
+        root.mkdir(parents=True)
+    return root
 
 
 def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
@@ -45,14 +57,14 @@ def register(app: typer.Typer) -> None:
 
         Example: mgdata grasps list 'jar/*'
         """
-        db = GraspDB.load_dir(directory or grasps_dir())
+        db = GraspDB.load_dir(_db_dir(directory))
         keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
         table = Table("model", "grasps", "valid", "invalid", "unvalidated", "sources")
         for key in keys:
             gs = db.grasps(key)
             counts = [sum(g.status == s for g in gs) for s in ("valid", "invalid", "unvalidated")]
             table.add_row(key, str(len(gs)), *map(str, counts), ", ".join(sorted({g.source for g in gs})))
-        Console().print(table)
+        plain_console().print(table)
 
     @grasps.command("generate")
     def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
@@ -65,7 +77,7 @@ def register(app: typer.Typer) -> None:
         from mgdata.grasps.config import load_grasp_config
         from mgdata.sim.assets import get_model, model_names
 
-        root = directory or grasps_dir()
+        root = _db_dir(directory, create=True)
         cand_cfg = load_grasp_config().candidates
         db = GraspDB.load_dir(root)
         for key in _match(models, model_names(), "object model"):
@@ -89,7 +101,7 @@ def register(app: typer.Typer) -> None:
         from mgdata.grasps.check import check_grasp
         from mgdata.grasps.config import load_grasp_config
 
-        root = directory or grasps_dir()
+        root = _db_dir(directory)
         settings = load_grasp_config()
         db = GraspDB.load_dir(root)
         keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)

@@ -7,9 +7,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from mgdata.console import plain_console
 from mgdata.ltl.compile import compile_ltlf
 from mgdata.metrics import Metrics, format_rate, load_records, metrics_by
 
@@ -49,7 +49,7 @@ def metrics_command(
         typer.echo(json.dumps({"unit": "percent", "by": list(keys), "groups": [m.as_dict() for m in groups]},
                               indent=2))
         return
-    console = Console(width=max(Console().width, 120))
+    console = plain_console(width=max(plain_console().width, 120))
     console.print(_table("Outcomes (%)", keys, groups, [
         ("n", lambda m: str(m.counts.n)), ("seeds", lambda m: str(len(m.seeds))),
         ("Success", lambda m: format_rate(m.tsr)), ("Safe", lambda m: format_rate(m.safe)),

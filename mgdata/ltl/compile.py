@@ -15,8 +15,10 @@ from mgdata.ltl.syntax import propositions
 def compile_ltlf(formula: str) -> DFA:
     """The minimal DFA of an LTL_f formula over non-empty finite traces.
 
-    Raises :class:`mgdata.errors.LtlSyntaxError` for text that does not parse. Results are cached per
-    formula string and shared, so their arrays are read-only.
+    Raises :class:`mgdata.errors.LtlSyntaxError` for text that does not parse, and its subclass
+    :class:`mgdata.errors.LtlLimitError` for a formula beyond the limits of ``docs/ltl.md`` (length, nesting,
+    propositions, automaton size). Results are cached per formula string and shared, so their arrays are
+    read-only.
 
     Example::
 
@@ -26,6 +28,6 @@ def compile_ltlf(formula: str) -> DFA:
     """
     tree = parse(formula)
     aps = propositions(tree)
-    raw = explore(tree, aps)
+    raw = explore(tree, aps, formula)
     table, accepting = minimize(raw.table, raw.accepting)
     return DFA(formula, aps, table, accepting)

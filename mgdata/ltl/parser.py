@@ -13,6 +13,11 @@ Grammar (loosest binding first)::
 Identifiers are ``[a-z_][a-z0-9_]*``; operators are upper case, so ``G!a`` and ``G (!a)`` read the same.
 ``WX`` (weak next) is one token: write ``a W X b`` for "a weak-until next b".
 
+Limits (each a clear :class:`mgdata.errors.LtlLimitError`, never a ``RecursionError`` or a compile that runs
+for minutes): at most :data:`MAX_LENGTH` characters, :data:`MAX_DEPTH` levels of nesting (parentheses,
+operators, and operands chained by one operator all count), and :data:`MAX_PROPOSITIONS` distinct
+propositions per formula (its automaton reads ``2^k`` letters). See ``docs/ltl.md``.
+
 Example::
 
     >>> str(parse("a W b & G !c"))
@@ -24,12 +29,19 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from mgdata.errors import LtlSyntaxError
-from mgdata.ltl.syntax import Binary, Const, Formula, Prop, Unary
+from mgdata.errors import LtlLimitError, LtlSyntaxError
+from mgdata.ltl.syntax import Binary, Const, Formula, Prop, Unary, depth, propositions
 
 _TOKEN = re.compile(r"\s*(?:(?P<ident>[a-z_][a-z0-9_]*)|(?P<op><->|->|WX|[!&|()XFGUWR]))")
 _OPERAND = "an operand (proposition, 'true', 'false', '(' or one of ! X WX F G)"
 _KEYWORDS = ("true", "false")
+
+MAX_LENGTH = 1000
+"""Most characters in one formula."""
+MAX_DEPTH = 32
+"""Most nesting levels in one formula: of its syntax tree, and of parentheses and operators as written."""
+MAX_PROPOSITIONS = 8
+"""Most distinct propositions in one formula (one constraint): its DFA has ``2^k`` letters per state."""
 
 
 @dataclass(frozen=True)
@@ -62,12 +74,30 @@ def tokenize(text: str) -> list[Token]:
 
 
 def parse(text: str) -> Formula:
-    """Parse an LTL_f formula; raises :class:`LtlSyntaxError` naming the column and what was expected."""
-    return _Parser(text).parse()
+    """Parse an LTL_f formula; raises :class:`LtlSyntaxError` naming the column and what was expected, or
+    :class:`LtlLimitError` for a formula beyond the documented limits."""
+    if len(text) > MAX_LENGTH:
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} is {len(text)} characters long; the limit is "
+                            f"{MAX_LENGTH} (split it into several constraints)")
+    tree = _Parser(text).parse()
+    aps = propositions(tree)
+    if len(aps) > MAX_PROPOSITIONS:
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} uses {len(aps)} distinct propositions; the limit "
+                            f"is {MAX_PROPOSITIONS} per constraint (split it into several constraints)")
+    if depth(tree) > MAX_DEPTH:
+        raise LtlLimitError(f"LTL_f formula {quoted(text)} nests {depth(tree)} operators deep; the limit is "
+                            f"{MAX_DEPTH} (a chain of n '&' or '|' counts n - 1; split it into several "
+                            "constraints)")
+    return tree
+
+
+def quoted(text: str) -> str:
+    """The formula for a message: quoted, cut to 60 characters."""
+    return repr(text) if len(text) <= 60 else repr(text[:57]) + "…"
 
 
 def _error(text: str, pos: int, expected: str, found: str) -> LtlSyntaxError:
-    where = f"bad LTL_f formula {text!r}: at column {pos + 1}"
+    where = f"bad LTL_f formula {quoted(text)}: at column {pos + 1}"
     return LtlSyntaxError(f"{where}: expected {expected}, found {found}")
 
 
@@ -82,6 +112,14 @@ class _Parser:
         self.text = text
         self.tokens = tokenize(text)
         self.i = 0
+        self.nesting = 0  # parentheses, unary and right-associative operators currently open
+
+    def deeper(self, token: Token) -> None:
+        """Open one more nesting level at ``token`` (bounded, so the recursion stays shallow)."""
+        self.nesting += 1
+        if self.nesting > MAX_DEPTH:
+            raise LtlLimitError(f"LTL_f formula {quoted(self.text)}: more than {MAX_DEPTH} levels of nesting "
+                                f"at column {token.pos + 1}; the limit is {MAX_DEPTH}")
 
     def parse(self) -> Formula:
         if self.tokens[0].kind == "end":
@@ -111,8 +149,11 @@ class _Parser:
     def implication(self) -> Formula:
         left = self.disjunction()
         if self.at("->", "<->"):
+            self.deeper(self.peek())
             op = self.take().text
-            return Binary(op, left, self.implication())
+            node = Binary(op, left, self.implication())
+            self.nesting -= 1
+            return node
         return left
 
     def disjunction(self) -> Formula:
@@ -132,14 +173,20 @@ class _Parser:
     def temporal(self) -> Formula:
         left = self.unary()
         if self.at("U", "W", "R"):
+            self.deeper(self.peek())
             op = self.take().text
-            return Binary(op, left, self.temporal())
+            node = Binary(op, left, self.temporal())
+            self.nesting -= 1
+            return node
         return left
 
     def unary(self) -> Formula:
         if self.at("!", "X", "WX", "F", "G"):
+            self.deeper(self.peek())
             op = self.take().text
-            return Unary(op, self.unary())
+            node = Unary(op, self.unary())
+            self.nesting -= 1
+            return node
         return self.atom()
 
     def atom(self) -> Formula:
@@ -149,7 +196,9 @@ class _Parser:
                 return Const(token.text == "true")
             return Prop(token.text)
         if token.kind == "op" and token.text == "(":
+            self.deeper(token)
             node = self.implication()
+            self.nesting -= 1
             closing = self.take()
             if not (closing.kind == "op" and closing.text == ")"):
                 raise _error(self.text, closing.pos, "')' or a binary operator", _describe(closing))

@@ -17,6 +17,11 @@ the empty trace is never accepted (LTL_f traces are non-empty).
 
 Successors are computed once per assignment of the propositions the state actually reads now, and spread
 over the full letter row with numpy.
+
+Exploration is bounded (:data:`MAX_STATES`, :data:`MAX_WORK`): a formula whose automaton is too large to
+build quickly is rejected with :class:`mgdata.errors.LtlLimitError` instead of running for minutes or
+exhausting memory (``G(a -> X X … X b)`` with 18 ``X`` has 2^18 states). The bounds are measured in
+``benchmarks/bench_ltl.py`` and documented in ``docs/ltl.md``.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mgdata.errors import LtlLimitError
+from mgdata.ltl.parser import quoted
 from mgdata.ltl.syntax import Binary, Const, Formula, Prop, Unary
 
 Term = frozenset[int]  # atom 0: "a next step exists"; atom n + 1: "a next step, if any, satisfies node n"
@@ -34,6 +41,13 @@ _NO_NEXT = 2  # the weak obligation on node 1 (false): "there is no next step"
 _TRUE: Dnf = frozenset({frozenset()})
 _FALSE: Dnf = frozenset()
 _HAS_NEXT: Dnf = frozenset({frozenset({_NEXT})})
+
+MAX_STATES = 4096
+"""Most states the (unminimised) progression automaton of one constraint may have."""
+MAX_WORK = 2_000_000
+"""Most work units exploring one constraint may take: a successor computation costs ``1 + n (1 + m)``
+for ``n`` candidate terms reduced to ``m`` (the quadratic canonicalisation), plus ``a b`` for each product
+of an ``a``-term and a ``b``-term formula it forms."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +184,7 @@ class _Progressor:
 
     def __init__(self, nodes: _Nodes) -> None:
         self.nodes = nodes
+        self.work = 0
         self.memo: dict[tuple[int, int], Dnf] = {}
         self.obligations: dict[int, Dnf] = {}
         self.terms: dict[tuple[Term, int], Dnf] = {}
@@ -234,12 +249,16 @@ class _Progressor:
                 conj = _TRUE
                 for atom in term:
                     if atom != _NEXT:
-                        conj = _and(conj, self.prog(atom - 1, letter))
+                        factor = self.prog(atom - 1, letter)
+                        self.work += len(conj) * len(factor)
+                        conj = _and(conj, factor)
                         if not conj:
                             break
                 self.terms[key] = conj
             terms.update(conj)
-        return _absorb(terms)
+        succ = _absorb(terms)
+        self.work += 1 + len(terms) * (1 + len(succ))
+        return succ
 
 
 def _submasks(mask: int) -> list[int]:
@@ -253,8 +272,13 @@ def _submasks(mask: int) -> list[int]:
         sub = (sub - 1) & mask
 
 
-def explore(formula: Formula, aps: tuple[str, ...]) -> RawAutomaton:
-    """Build the reachable progression DFA of ``formula`` over the letters of ``aps`` (bit i = ``aps[i]``)."""
+def explore(formula: Formula, aps: tuple[str, ...], text: str = "") -> RawAutomaton:
+    """Build the reachable progression DFA of ``formula`` over the letters of ``aps`` (bit i = ``aps[i]``).
+
+    Raises:
+        LtlLimitError: more than :data:`MAX_STATES` states or :data:`MAX_WORK` work units (``text``, the
+            formula as written, names it in the message).
+    """
     nodes = _Nodes(aps)
     root = nodes.nnf(formula)
     progressor = _Progressor(nodes)
@@ -279,6 +303,12 @@ def explore(formula: Formula, aps: tuple[str, ...]) -> RawAutomaton:
                 index[succ] = len(states)
                 states.append(succ)
             lut[sub] = index[succ]
+            if len(states) > MAX_STATES or progressor.work > MAX_WORK:
+                what = (f"more than {MAX_STATES} automaton states" if len(states) > MAX_STATES else
+                        f"more than {MAX_WORK:,} work units to build its automaton")
+                shown = quoted(text or str(formula))
+                raise LtlLimitError(f"LTL_f formula {shown} is too complex to monitor: it needs {what}; "
+                                    "split it into several constraints or use fewer nested X/U/F/G operators")
         rows.append(lut[letters & mask])
         i += 1
     accepting = np.array([any(_NEXT not in term for term in s) for s in states], dtype=bool)

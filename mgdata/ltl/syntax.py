@@ -77,9 +77,14 @@ def propositions(formula: Formula) -> tuple[str, ...]:
 
 
 def depth(formula: Formula) -> int:
-    """Operator nesting depth (0 for a constant or a proposition)."""
-    if isinstance(formula, Unary):
-        return 1 + depth(formula.arg)
-    if isinstance(formula, Binary):
-        return 1 + max(depth(formula.left), depth(formula.right))
-    return 0
+    """Operator nesting depth (0 for a constant or a proposition); iterative, so any tree is fine."""
+    deepest = 0
+    stack: list[tuple[Formula, int]] = [(formula, 0)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        if isinstance(node, Unary):
+            stack.append((node.arg, d + 1))
+        elif isinstance(node, Binary):
+            stack.extend(((node.left, d + 1), (node.right, d + 1)))
+    return deepest

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+from mgdata.errors import DatasetError
 from mgdata.record.summary import format_summary, summarize
 from mgdata.record.validate import validate_dataset
 from mgdata.record.views import FORMATS, export_dataset
@@ -26,9 +27,12 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Check structure, counts, timestamps, stats, checksums and the safety record of a dataset.
 
-        Prints one line per problem and exits 1 if there is any.
+        Prints one 'problem:' line per problem. Exit status: 0 valid; 1 the dataset is invalid (corrupt or
+        inconsistent: any problem); 2 DATASET is not a folder.
         Example: mgdata validate datasets/jar
         """
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
         report = validate_dataset(dataset, decode_all=decode_all)
         for note in report.notes:
             typer.echo(f"note: {note}")

@@ -104,6 +104,16 @@ def read_info(path: Path) -> dict[str, Any]:
     mg = info.get("mgdata")
     if not isinstance(mg, dict) or mg.get("format") != MGDATA_FORMAT:
         raise DatasetError(f"{path}: no mgdata block of format {MGDATA_FORMAT} (not written by mgdata)")
+    typed = {"fps": int, "total_episodes": int, "total_frames": int, "total_tasks": int, "chunks_size": int,
+             "features": dict, "splits": dict, "data_path": str, "mgdata.sha256": dict,
+             "mgdata.attempts": (int, type(None)), "mgdata.video_file_seconds": (int, float)}
+    for key, kind in typed.items():
+        block, _, name = key.rpartition(".")
+        table = mg if block else info
+        if name in table and (not isinstance(table[name], kind) or isinstance(table[name], bool)):
+            raise DatasetError(f"{path}: {key} = {table[name]!r} has the wrong type (corrupt info.json)")
+    if info["chunks_size"] < 1 or info["fps"] < 1 or min(info["total_episodes"], info["total_frames"]) < 0:
+        raise DatasetError(f"{path}: chunks_size, fps, total_episodes or total_frames out of range")
     return info
 
 

@@ -89,11 +89,12 @@ class DatasetWriter:
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
                video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
-               kept_only: bool = False) -> DatasetWriter:
+               kept_only: bool = False, mgdata: dict | None = None) -> DatasetWriter:
         """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
         are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
         held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
-        ``generate`` output, whose negatives go to ``<out>_failed``).
+        ``generate`` output, whose negatives go to ``<out>_failed``), and the extra keys of ``mgdata`` (in
+        its ``mgdata`` block; e.g. the generator's inputs digest).
 
         A folder holding only the work area of a ``create`` that was killed before its first commit counts
         as empty.
@@ -114,6 +115,7 @@ class DatasetWriter:
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
                           hold_steps=hold_steps, kept_only=kept_only)
+        info["mgdata"].update({k: v for k, v in (mgdata or {}).items() if k not in info["mgdata"]})
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
         try:

@@ -43,13 +43,20 @@ def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec
     unknown = sorted(set(lay) - set(_KEYS))
     if missing or unknown:
         raise RecipeError(f"{src} missing key(s) {missing} / unknown key(s) {unknown}")
+    clearance = _number(lay, "food_clearance", src, 0.0, 0.1)
+    jitter_deg = _number(lay, "jar_yaw_jitter_deg", src, 0.0, 90.0)
+    goal_height = _number(lay, "goal_height", src, 0.0, 1.0)
+    goal_radius = _number(lay, "goal_radius", src, 0.005, 0.5)
+    lid_open = _number(lay, "lid_open", src, 0.0, 1.0)
+    for key in ("jar_x", "jar_y", "goal_x", "goal_y", "goal_distance"):
+        _bounds(lay[key], f"{src} {key}")
     jars = _models(lay["jar_models"], f"{src} jar_models")
     foods = _models(lay["foods"], f"{src} foods")
     jar_name = jars[int(rng.integers(len(jars)))]
     jar = get_model(jar_name)
     geo = jar.geometry
-    room_w = 2.0 * geo["mouth_radius"] - float(lay["food_clearance"])
-    room_h = geo["height"] - geo["bottom"] - float(lay["food_clearance"])
+    room_w = 2.0 * geo["mouth_radius"] - clearance
+    room_h = geo["height"] - geo["bottom"] - clearance
     fitting = [f for f in foods if get_model(f).geometry["width"] <= room_w
                and get_model(f).geometry["height"] <= room_h]
     if not fitting:
@@ -57,11 +64,13 @@ def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec
     food_name = fitting[int(rng.integers(len(fitting)))]
     kind = str(get_model(food_name).geometry["kind"])
     names: Mapping[str, Any] = lay["food_names"]
+    if not isinstance(names, Mapping) or not all(isinstance(v, str) for v in names.values()):
+        raise RecipeError(f"{src} food_names: expected a table of food kind = display name, got {names!r}")
     if kind not in names:
         raise RecipeError(f"{src} food_names has no display name for food kind {kind!r}")
 
     jx, jy = _uniform(rng, lay["jar_x"], f"{src} jar_x"), _uniform(rng, lay["jar_y"], f"{src} jar_y")
-    jitter = math.radians(_uniform(rng, [-lay["jar_yaw_jitter_deg"], lay["jar_yaw_jitter_deg"]], src))
+    jitter = math.radians(_uniform(rng, [-jitter_deg, jitter_deg], src))
     yaw = math.atan2(jy, jx) + jitter
     goal = _goal(rng, lay, (jx, jy), src)
     z = TABLE_TOP_Z
@@ -69,9 +78,6 @@ def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec
         ObjectPlacement("jar", jar_name, (jx, jy, z), yaw),
         ObjectPlacement("food", food_name, (jx, jy, z + geo["bottom"] + 0.001), yaw),
     )
-    lid_open = float(lay["lid_open"])
-    if not 0.0 <= lid_open <= 1.0:
-        raise RecipeError(f"{src} lid_open = {lid_open}: expected a fraction 0 … 1")
     try:
         prompt = recipe.prompt.format(food=names[kind])
     except (KeyError, IndexError) as err:
@@ -84,7 +90,7 @@ def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec
         prompt=prompt,
         objects=objects,
         safety=recipe.spec,
-        goal=GoalRegion((goal[0], goal[1], z + float(lay["goal_height"])), float(lay["goal_radius"])),
+        goal=GoalRegion((goal[0], goal[1], z + goal_height), goal_radius),
         articulation={"jar": lid_open},
         image_size=recipe.tasks.image_size,
         seed=int(rng.integers(0, 2**31 - 1)),
@@ -95,7 +101,7 @@ def jar_task(recipe: Recipe, task_id: int, rng: np.random.Generator) -> TaskSpec
 def _models(patterns: Any, where: str) -> list[str]:
     if isinstance(patterns, str):
         patterns = [patterns]
-    if not isinstance(patterns, list) or not patterns:
+    if not isinstance(patterns, list) or not patterns or not all(isinstance(p, str) for p in patterns):
         raise RecipeError(f"{where}: expected a list of model names or glob patterns")
     everything = model_names()
     found = [n for n in everything if any(fnmatch.fnmatchcase(n, p) for p in patterns)]
@@ -104,10 +110,26 @@ def _models(patterns: Any, where: str) -> list[str]:
     return found
 
 
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _number(lay: Mapping[str, Any], key: str, src: str, low: float, high: float) -> float:
+    value = lay[key]
+    if not _finite(value) or not low <= value <= high:
+        raise RecipeError(f"{src} {key} = {value!r}: expected a number in [{low:g}, {high:g}]")
+    return float(value)
+
+
+def _bounds(bounds: Any, where: str) -> tuple[float, float]:
+    ok = isinstance(bounds, list) and len(bounds) == 2 and all(map(_finite, bounds))
+    if not ok or bounds[0] > bounds[1]:
+        raise RecipeError(f"{where}: expected [low, high], two numbers with low <= high, got {bounds!r}")
+    return float(bounds[0]), float(bounds[1])
+
+
 def _uniform(rng: np.random.Generator, bounds: Any, where: str) -> float:
-    if not isinstance(bounds, list) or len(bounds) != 2 or bounds[0] > bounds[1]:
-        raise RecipeError(f"{where}: expected [low, high], got {bounds!r}")
-    return float(rng.uniform(bounds[0], bounds[1]))
+    return float(rng.uniform(*_bounds(bounds, where)))
 
 
 def _goal(rng: np.random.Generator, lay: Mapping[str, Any], jar: tuple[float, float],

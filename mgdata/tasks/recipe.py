@@ -16,6 +16,11 @@ Top-level keys and tables::
     [variation]   knob = [low, high]      (drawn per attempt; draw 0 takes the midpoints)
     [params]      skeleton tunables (copied into every TaskSpec.params)
 
+``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
+(:class:`mgdata.tasks.recipe_keys.RecipeKeys`); :func:`check_recipe_keys` checks them (names, types, ranges)
+and gives typed values. The engine loads recipes through ``mgdata.engine.skeleton.load_family_recipe``,
+which does both.
+
 Example::
 
     recipe = load_recipe("jar")
@@ -24,7 +29,9 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -35,8 +42,11 @@ from typing import Any
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import recipes_dir
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
+from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
+MAX_IMAGE_SIZE = 2048
+"""Largest camera image side (pixels) a recipe may ask for (an offscreen framebuffer per worker)."""
 
 
 def _default_image_size() -> int:
@@ -93,15 +103,37 @@ def recipe_path(family: str) -> Path:
     """``recipes/<family>.toml``, or :class:`UnknownFamilyError` listing the recipes that exist."""
     path = recipes_dir() / f"{family}.toml"
     if not path.is_file():
-        stems = sorted(p.stem for p in recipes_dir().glob("*.toml") if p.stem not in ("motion", "grasps"))
-        known = ", ".join(stems) or "none"
-        raise UnknownFamilyError(f"no recipe for family {family!r} at {path} (recipes: {known})")
+        known = ", ".join(family_recipes()) or "none"
+        raise UnknownFamilyError(f"no recipe for family {family!r} at {path} (family recipes: {known})")
     return path
 
 
+def family_recipes() -> tuple[str, ...]:
+    """The families with a recipe in ``recipes/`` (files with a ``family`` key; not sim, motion, grasps)."""
+    found = []
+    for path in sorted(recipes_dir().glob("*.toml")):
+        try:
+            if "family" in tomllib.loads(path.read_text(encoding="utf-8")):
+                found.append(path.stem)
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            continue
+    return tuple(found)
+
+
+def check_recipe_keys(recipe: Recipe, keys: RecipeKeys) -> Recipe:
+    """``recipe`` with ``[params]`` and ``[variation]`` checked against what its skeleton reads (``keys``):
+    unknown keys (with the closest known one), missing keys, types and ranges; values come back typed."""
+    src = str(recipe.path)
+    params = check_params(recipe.params, keys.params, f"{src}: [params]")
+    variation = check_variation(recipe.variation, keys.variation, f"{src}: [variation]")
+    return dataclasses.replace(recipe, params=MappingProxyType(params), variation=MappingProxyType(variation))
+
+
 def load_recipe(family_or_path: str | Path) -> Recipe:
-    """Load and validate a recipe by family name or by path."""
-    path = Path(family_or_path) if str(family_or_path).endswith(".toml") else recipe_path(str(family_or_path))
+    """Load and validate a recipe by family name (a ``str`` not ending in ``.toml``) or by path (a ``Path``,
+    or a ``str`` ending in ``.toml``)."""
+    by_path = isinstance(family_or_path, Path) or str(family_or_path).endswith(".toml")
+    path = Path(family_or_path) if by_path else recipe_path(str(family_or_path))
     raw = _read_toml(path)
     src = str(path)
     family = _get(raw, "family", str, src)
@@ -131,6 +163,10 @@ def _read_toml(path: Path) -> dict[str, Any]:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise RecipeError(f"recipe {path} does not exist") from None
+    except UnicodeDecodeError:
+        raise RecipeError(f"{path}: not a UTF-8 text file") from None
+    except OSError as err:
+        raise RecipeError(f"recipe {path}: cannot be read ({err.strerror or err})") from None
     except tomllib.TOMLDecodeError as err:
         raise RecipeError(f"{path}: not valid TOML: {err}") from None
 
@@ -138,7 +174,12 @@ def _read_toml(path: Path) -> dict[str, Any]:
 def _load_spec(path: Path, src: str) -> SafetySpec:
     if not path.is_file():
         raise RecipeError(f"{src}: spec file {path} does not exist")
-    return load_spec(path)
+    try:
+        return load_spec(path)
+    except UnicodeDecodeError:
+        raise RecipeError(f"{src}: spec file {path} is not a UTF-8 text file") from None
+    except OSError as err:
+        raise RecipeError(f"{src}: spec file {path} cannot be read ({err.strerror or err})") from None
 
 
 def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
@@ -152,24 +193,27 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
         if k in table:
             ints[k] = _get(table, k, int, where)
     for k, v in ints.items():
-        low = 0 if k in ("seed", "settle_steps") else 1
-        if v < low:
-            raise RecipeError(f"{where} {k} = {v} is out of range (expected an integer >= {low})")
+        low = 0 if k in ("seed", "settle_steps") else 8 if k == "image_size" else 1
+        high = MAX_IMAGE_SIZE if k == "image_size" else None
+        if v < low or (high is not None and v > high):
+            expected = f"an integer in [{low}, {high}]" if high else f"an integer >= {low}"
+            raise RecipeError(f"{where} {k} = {v} is out of range (expected {expected})")
     rest = {k: _get(table, k, float, where) for k in rest_keys if k in table}
     for k, v in rest.items():
         if not v > 0:
             raise RecipeError(f"{where} {k} = {v} is out of range (expected a speed > 0)")
-    cameras = tuple(table.get("cameras", CAMERAS))
+    raw_cameras = table.get("cameras", list(CAMERAS))
+    cameras = tuple(raw_cameras) if isinstance(raw_cameras, list) else ()
     bad = [c for c in cameras if c not in CAMERAS]
-    if bad or not cameras:
-        raise RecipeError(f"{where} cameras = {list(cameras)}: expected a non-empty subset of "
+    if bad or not cameras or len(set(cameras)) != len(cameras):
+        raise RecipeError(f"{where} cameras = {raw_cameras!r}: expected a non-empty subset of "
                           f"{list(CAMERAS)}")
     return TaskSettings(cameras=cameras, **ints, **rest)
 
 
 def _range(raw: Any, where: str) -> tuple[float, float]:
     ok = isinstance(raw, list) and len(raw) == 2 and all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in raw)
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in raw)
     if not ok or raw[0] > raw[1]:
         raise RecipeError(f"{where} = {raw!r}: expected [low, high] numbers with low <= high")
     return float(raw[0]), float(raw[1])

@@ -6,10 +6,12 @@ from pathlib import Path
 
 import pytest
 
+from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError, SpecError, UnknownFamilyError
 from mgdata.paths import recipes_dir
 from mgdata.tasks.base import base_task
 from mgdata.tasks.recipe import load_recipe
+from skeletons.jar import JarSkeleton
 
 
 def _variant(tmp: Path, old: str, new: str) -> Path:
@@ -41,6 +43,8 @@ def test_shipped_recipe_loads() -> None:
         ("lift_height = [0.05, 0.08]", "lift_height = [0.08, 0.05]", "[variation] lift_height"),
         ('family = "jar"', 'family = "lid"', "must match the file name"),
         ("[layout]", "[layoutt]", "missing table [layout]"),
+        ("image_size = 256", "image_size = 100000", "image_size = 100000 is out of range (expected an"),
+        ('cameras = ["front", "left", "right", "shoulder", "wrist"]', "cameras = 5", "cameras = 5: expected"),
     ],
 )
 def test_bad_recipes_name_file_and_key(tmp_path: Path, old: str, new: str, fragment: str) -> None:
@@ -61,13 +65,20 @@ def test_bad_success_proposition_is_a_spec_error(tmp_path: Path) -> None:
     [
         ('jar_models = ["jar/hinged_*"]', 'jar_models = ["jar/nothing_*"]', "matches no object model"),
         ("goal_distance = [0.18, 0.30]", "goal_distance = [0.9, 1.0]", "no goal position"),
-        ("food_clearance = 0.006", "food_clearance = 0.2", "no food item fits"),
+        ("food_clearance = 0.006", "food_clearance = 0.2", "food_clearance = 0.2: expected a number in"),
+        ("food_clearance = 0.006", "food_clearance = 0.09", "no food item fits"),
+        ("lid_open = 1.0", 'lid_open = "open"', "lid_open = 'open': expected a number in [0, 1]"),
+        ("goal_height = 0.10", "goal_height = [nan, 0.0]", "goal_height = [nan, 0.0]: expected a number"),
+        ("goal_x = [0.38, 0.62]", "goal_x = [0.62, 0.38]", "goal_x: expected [low, high]"),
+        ('jar_models = ["jar/hinged_*"]', "jar_models = [5]", "jar_models: expected a list of model names"),
+        ('cherry = "cherry"', "cherry = 5", "food_names: expected a table of food kind = display name"),
     ],
 )
 def test_bad_layouts_name_the_key(tmp_path: Path, old: str, new: str, fragment: str) -> None:
     recipe = load_recipe(_variant(tmp_path, old, new))
-    with pytest.raises(RecipeError, match=fragment):
+    with pytest.raises(RecipeError) as err:
         base_task(recipe, 0)
+    assert fragment in str(err.value)
 
 
 def test_unknown_family_and_task() -> None:
@@ -75,3 +86,59 @@ def test_unknown_family_and_task() -> None:
         load_recipe("nosuch")
     with pytest.raises(RecipeError, match="task 26 does not exist"):
         base_task(load_recipe("jar"), 26)
+
+
+# --- the recipe against what the skeleton declares it reads (issue 8 §5) ---------------------------------
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "fragment"),
+    [
+        ("lift_height = [0.05, 0.08]", "lift_heigth = [0.05, 0.08]",
+         "[variation] unknown key 'lift_heigth'; did you mean 'lift_height'? (known: lid_push_frac,"),
+        ("carry_speed = 0.5", "carry_sped = 0.5",
+         "[params] unknown key 'carry_sped'; did you mean 'carry_speed'?"),
+        ("open_steps = 8 ", "", "[params] missing key(s) 'open_steps'"),
+        ("goal_dx = [-0.012, 0.012]", "", "[variation] missing key(s) 'goal_dx'"),
+        ("open_steps = 8 ", 'open_steps = "eight" ',
+         "[params] open_steps = 'eight': expected an integer in [1, 200]"),
+        ("open_steps = 8 ", "open_steps = 8.5 ", "[params] open_steps = 8.5: expected an integer"),
+        ("carry_speed = 0.5", "carry_speed = 3.0",
+         "[params] carry_speed = 3.0: expected a number in [0.01, 1]"),
+        ("carry_speed = 0.5", "carry_speed = true", "[params] carry_speed = true: expected a number"),
+        ("carry_yaws_deg = [0, 30", "carry_yaws_deg = [0, 'x', 30", "[params] carry_yaws_deg = [0, 'x', 30"),
+        ("lift_height = [0.05, 0.08]", "lift_height = [0.05, 0.9]",
+         "[variation] lift_height = [0.05, 0.9]: outside the allowed range [0, 0.3]"),
+        ("lift_height = [0.05, 0.08]", "lift_height = [0.08, 0.05]",
+         "[variation] lift_height = [0.08, 0.05]: expected [low, high]"),
+        ("lift_height = [0.05, 0.08]", "lift_height = [nan, 0.08]", "[variation] lift_height = [nan, 0.08]"),
+        ("lift_height = [0.05, 0.08]", "lift_height = 0.06",
+         "[variation] lift_height = 0.06: expected [low, high]"),
+    ],
+)
+def test_recipe_is_checked_against_skeleton_keys(tmp_path: Path, old: str, new: str, fragment: str) -> None:
+    path = _variant(tmp_path, old, new)
+    with pytest.raises(RecipeError) as err:
+        load_family_recipe(path)
+    assert str(path) in str(err.value) and fragment in str(err.value), str(err.value)
+
+
+def test_checked_recipe_has_typed_values() -> None:
+    recipe = load_family_recipe("jar")
+    declared = JarSkeleton.recipe_keys
+    assert list(recipe.params) == [p.name for p in declared.params]
+    assert list(recipe.variation) == [k.name for k in declared.variation]
+    for p in declared.params:
+        value = recipe.params[p.name]
+        if p.kind is tuple:
+            assert isinstance(value, tuple) and all(type(v) is float for v in value)
+        else:
+            assert type(value) is p.kind, p.name
+    assert recipe.params["carry_yaws_deg"][:3] == (0.0, 30.0, -30.0)
+    assert all(type(lo) is float and lo <= hi for lo, hi in recipe.variation.values())
+
+
+def test_unknown_family_lists_only_family_recipes() -> None:
+    with pytest.raises(UnknownFamilyError) as err:
+        load_recipe("nosuch")
+    assert "(family recipes: jar)" in str(err.value) and "sim" not in str(err.value).split("recipes:")[1]
