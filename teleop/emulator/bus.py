@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from teleop.emulator import dynamixel, feetech
+from teleop.emulator.packet import Instruction
 from teleop.emulator.servo import EmulatedServo
 
 
@@ -138,7 +139,7 @@ class EmulatedBus:
             self._corrupted.value += 1
         return bytes(packet)
 
-    def _answer(self, p: dynamixel.Instruction | feetech.Instruction) -> bytes:
+    def _answer(self, p: Instruction) -> bytes:
         if not p.crc_ok:
             return b""  # a servo ignores a packet it cannot trust; the host times out
         dxl = self.family == "dynamixel"

@@ -8,7 +8,7 @@ followed by an error byte.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from teleop.emulator.packet import Instruction
 
 HEADER = b"\xff\xff\xfd\x00"
 BROADCAST = 0xFE
@@ -43,16 +43,6 @@ def stuff(payload: bytes) -> bytes:
 
 def unstuff(payload: bytes) -> bytes:
     return payload.replace(b"\xff\xff\xfd\xfd", b"\xff\xff\xfd")
-
-
-@dataclass(frozen=True)
-class Instruction:
-    """One parsed instruction packet (``crc_ok`` False when its CRC did not match)."""
-
-    id: int
-    instruction: int
-    params: bytes
-    crc_ok: bool
 
 
 def parse(buf: bytearray) -> Instruction | None:

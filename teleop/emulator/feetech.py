@@ -7,7 +7,7 @@ instruction's place. STS servos store multi-byte values little-endian.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from teleop.emulator.packet import Instruction
 
 HEADER = b"\xff\xff"
 BROADCAST = 0xFE
@@ -16,16 +16,6 @@ PING, READ, WRITE, SYNC_READ, SYNC_WRITE = 0x01, 0x02, 0x03, 0x82, 0x83
 
 def checksum(body: bytes) -> int:
     return (~sum(body)) & 0xFF
-
-
-@dataclass(frozen=True)
-class Instruction:
-    """One parsed instruction packet (``crc_ok`` False when its checksum did not match)."""
-
-    id: int
-    instruction: int
-    params: bytes
-    crc_ok: bool
 
 
 def parse(buf: bytearray) -> Instruction | None:
