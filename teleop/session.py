@@ -407,4 +407,4 @@ class _NoSink:
         raise RuntimeError("no episode in progress")
 
     def discard_episode(self) -> None:
-        pass
+        """Nothing is in progress between episodes, so there is nothing to drop."""
