@@ -35,6 +35,7 @@ import numpy as np
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.gate import SuccessGate
 from mgdata.engine.generate import failed_path
+from mgdata.engine.init_gate import base_task
 from mgdata.engine.runner import EpisodeRunner, StepOutcome
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.success import SuccessCheck
@@ -47,7 +48,6 @@ from mgdata.record.writer import DatasetWriter
 from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
-from mgdata.tasks.base import base_task
 from teleop.config import load_teleop_config
 from teleop.mapping import Mapper, StepEvents
 from teleop.reader import LeaderReader

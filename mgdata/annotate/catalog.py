@@ -16,31 +16,16 @@ from __future__ import annotations
 import fnmatch
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
 
 from mgdata.errors import AssetError
 from mgdata.sim.assets import categories, get_model, model_names
 from mgdata.tasks.recipe import Recipe, load_recipe
 
 
-def _layout_patterns(layout: Any) -> list[str]:
-    """Strings in the layout (any nesting) that name at least one library model."""
-    out: list[str] = []
-    if isinstance(layout, dict):
-        for value in layout.values():
-            out += _layout_patterns(value)
-    elif isinstance(layout, list):
-        for value in layout:
-            out += _layout_patterns(value)
-    elif isinstance(layout, str) and "/" in layout:
-        out.append(layout)
-    return out
-
-
 def family_models(recipe: Recipe) -> list[str]:
     """The models a family's recipe layout names (sorted)."""
     names = model_names()
-    patterns = _layout_patterns(dict(recipe.layout))
+    patterns = recipe.layout.model_patterns()
     return sorted({n for n in names for p in patterns if fnmatch.fnmatchcase(n, p)})
 
 

@@ -22,7 +22,7 @@ from mgdata.annotate.config import LiveConfig
 from mgdata.grasps.check import GraspCheckConfig, check_placement
 from mgdata.grasps.db import Grasp
 from mgdata.sim.world import TABLE_TOP_Z
-from mgdata.tasks.base import base_tasks
+from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
 
 
@@ -60,7 +60,9 @@ def recipe_placements(family: str | None, category: str, cfg: LiveConfig) -> tup
     """Representative placements of ``category`` in ``family``'s base tasks, or the default ones."""
     if family is None or cfg.placements <= 0:
         return default_placements(cfg)
-    found = [(p.pos[0], p.pos[1], p.yaw) for task in base_tasks(load_recipe(family)) for p in task.objects
+    recipe = load_recipe(family)
+    tasks = (draw_task(recipe, k) for k in range(recipe.tasks.count))
+    found = [(p.pos[0], p.pos[1], p.yaw) for task in tasks for p in task.objects
              if p.model.split("/", 1)[0] == category]
     if not found:
         return default_placements(cfg)

@@ -39,6 +39,7 @@ from mgdata.engine.variation import draw_variation
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import (
+    AllowedContacts,
     Attachment,
     JointTrajectory,
     MotionConfig,
@@ -53,9 +54,10 @@ from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
+from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.world import Physics
-from mgdata.tasks.base import base_task
+from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
 
@@ -156,7 +158,7 @@ def dataset_schema(recipe: Recipe) -> DatasetSchema:
     return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
                          constraints=tuple(c.id for c in recipe.spec.constraints),
-                         physics_state_size=state_size(build_scene(base_task(recipe, 0)).model))
+                         physics_state_size=state_size(build_scene(draw_task(recipe, 0)).model))
 
 
 class Executor:
@@ -174,7 +176,7 @@ class Executor:
     def __init__(self, task: TaskSpec, recipe: Recipe, *, grasps: GraspDB,
                  motion: MotionConfig | None = None, base_seed: int = 0, render: bool = True) -> None:
         self.task, self.recipe, self.base_seed = task, recipe, base_seed
-        self.skeleton: FamilySkeleton = skeleton_for(task.family)
+        self.skeleton: FamilySkeleton = skeleton_for(recipe.skeleton)
         self.scene: Scene = build_scene(task)
         self.controller = JointController(self.scene)
         motion = motion or load_motion_config()
@@ -267,13 +269,15 @@ class Executor:
                                     "is now; only the last motion can be reversed", seg.name)
             return traj
         target = self._target(seg, ctx)
-        attached = self._attachment(seg.attached) if seg.attached else None
+        riders = tuple(b for r in seg.riders for b in self.scene.loose_bodies(r))
+        allowed = seg.allow + AllowedContacts(tuple((ROOT_BODY, b) for b in riders))
+        attached = self._attachment(seg.attached, riders) if seg.attached else None
         rng = ctx.variation.rng(f"plan/{seg.name}")
         if seg.kind == "linear":
-            return planner.linear(ctx.q_cmd, target, rng, orientation=seg.orientation, allowed=seg.allow,
+            return planner.linear(ctx.q_cmd, target, rng, orientation=seg.orientation, allowed=allowed,
                                   attached=attached)
-        q_goal = planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=seg.allow, attached=attached)
-        return planner.free(ctx.q_cmd, q_goal, rng, allowed=seg.allow, attached=attached)
+        q_goal = planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=attached)
+        return planner.free(ctx.q_cmd, q_goal, rng, allowed=allowed, attached=attached)
 
     def _target(self, seg: MotionSegment, ctx: Context) -> Pose:
         if isinstance(seg.target, Pose):
@@ -285,11 +289,11 @@ class Executor:
         except KeyError as err:
             raise AttemptFailed("target_fail", str(err), seg.name) from None
 
-    def _attachment(self, body: str) -> Attachment:
-        """The held object's pose in the TCP frame, measured from the live state."""
+    def _attachment(self, body: str, riders: tuple[str, ...]) -> Attachment:
+        """The held object's pose in the TCP frame, measured from the live state, with its riders."""
         tcp = Pose.from_pos_mat(*self.scene.tcp_pose())
         obj = Pose.from_pos_mat(*self.scene.object_pose(body))
-        return Attachment(body, (tcp.inverse() @ obj).matrix())
+        return Attachment(body, (tcp.inverse() @ obj).matrix(), riders=riders)
 
     # -- one control step ----------------------------------------------------------------------------------
     def _step(self, q: np.ndarray, grip: float, state: _Run) -> None:

@@ -48,7 +48,7 @@ from mgdata.record.episode import DatasetSchema, EpisodeMeta
 from mgdata.record.metafiles import read_info
 from mgdata.record.writer import DatasetWriter
 from mgdata.sim.config import SIM_TOML
-from mgdata.tasks.base import base_task
+from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import Recipe
 
 STATE_FILE = "meta/mgdata_generate.json"
@@ -141,7 +141,7 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
         raise GraspDBError(f"grasp database folder {grasps} does not exist")
     GraspDB.load_dir(grasps)
     for task_id in tasks:
-        base_task(recipe, task_id)
+        draw_task(recipe, task_id)  # the layout's rules; workers run the initial-state gate per task
     return recipe, tasks, grasps
 
 

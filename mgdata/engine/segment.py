@@ -11,7 +11,9 @@ Five kinds, each with only the options it needs:
 A target is a :class:`~mgdata.motion.types.Pose` of the TCP in the world, or the name of a runtime target
 that the skeleton's ``resolve`` computes from the live state when the segment starts. ``allow`` lists the body
 pairs that may touch while planning (``("hand", "jar")``); ``attached`` names an object held by the gripper
-(it moves with the TCP in collision checks). ``gripper`` is the gripper command sent during the segment.
+(it moves with the TCP in collision checks); ``riders`` names objects riding inside the held or approached
+object (food in a jar, liquid in a cup): they move with a held object, and the robot may touch them.
+``gripper`` is the gripper command sent during the segment.
 
 Example::
 
@@ -49,6 +51,7 @@ class MotionSegment:
         gripper: the gripper command during the segment (for ``gripper`` segments: the new command).
         allow: body pairs allowed to be in contact while planning and re-checking.
         attached: body name of an object carried in the gripper during the segment.
+        riders: object instances riding inside the held (or approached) object; never obstacles.
         orientation: linear only: ``"hold"`` the start orientation or ``"slerp"`` to the target's.
         of: reverse only: the name of the earlier segment to replay backwards.
         steps: gripper/hold only: control steps.
@@ -66,6 +69,7 @@ class MotionSegment:
     of: str | None = None
     steps: int = 0
     speed: float = 1.0
+    riders: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -90,16 +94,18 @@ def _allow(pairs: Pairs | AllowedContacts) -> AllowedContacts:
 
 
 def free(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
-         attached: str | None = None, speed: float = 1.0) -> MotionSegment:
+         attached: str | None = None, speed: float = 1.0, riders: tuple[str, ...] = ()) -> MotionSegment:
     """Collision-free joint-space motion to a TCP target."""
-    return MotionSegment(name, "free", target, gripper, _allow(allow), attached, speed=speed)
+    return MotionSegment(name, "free", target, gripper, _allow(allow), attached, speed=speed,
+                         riders=tuple(riders))
 
 
 def linear(name: str, target: Pose | str, *, gripper: GripperCommand = "open", allow: Pairs = (),
            attached: str | None = None, orientation: Literal["hold", "slerp"] = "hold",
-           speed: float = 1.0) -> MotionSegment:
+           speed: float = 1.0, riders: tuple[str, ...] = ()) -> MotionSegment:
     """Straight TCP line to a target."""
-    return MotionSegment(name, "linear", target, gripper, _allow(allow), attached, orientation, speed=speed)
+    return MotionSegment(name, "linear", target, gripper, _allow(allow), attached, orientation, speed=speed,
+                         riders=tuple(riders))
 
 
 def gripper(name: str, command: GripperCommand, *, steps: int) -> MotionSegment:
@@ -108,10 +114,10 @@ def gripper(name: str, command: GripperCommand, *, steps: int) -> MotionSegment:
 
 
 def reverse(name: str, of: str, *, gripper: GripperCommand = "open", allow: Pairs = (),
-            attached: str | None = None, speed: float = 1.0) -> MotionSegment:
+            attached: str | None = None, speed: float = 1.0, riders: tuple[str, ...] = ()) -> MotionSegment:
     """Replay the executed joint trajectory of segment ``of`` backwards."""
     return MotionSegment(name, "reverse", gripper=gripper, allow=_allow(allow), attached=attached, of=of,
-                         speed=speed)
+                         speed=speed, riders=tuple(riders))
 
 
 def hold(name: str, *, steps: int, gripper: GripperCommand = "open") -> MotionSegment:

@@ -1,23 +1,29 @@
-"""FamilySkeleton: the contract a task family fills in (Layer 3), and the registry by family name.
+"""FamilySkeleton: the contract a task family fills in (Layer 3), and the registry by skeleton name.
+
+A family is a recipe (``recipes/<family>.toml``) and the skeleton it names (``skeleton = "clutter"`` →
+``skeletons/clutter.py``); several recipes may share one skeleton (``clutter_dry``, ``clutter_liquid``).
 
 A skeleton says *what* the demonstration does, as an ordered list of :class:`MotionSegment`; the executor
 does the planning, execution, monitoring and gating. Hooks beyond ``segments``:
 
 * ``resolve(name, ctx)``: the world TCP pose of a named runtime target, computed from the live state;
-* ``success_extra(ctx)``: a family check on top of the recipe's goal predicate (default: none).
+* ``success_extra(ctx)``: a family check on top of the recipe's goal predicate (default: none);
+* ``feasibility(ctx, min_grasps)``: the skeleton's part of the initial-state gate (``mgdata.engine.init_gate``): raise
+  :class:`~mgdata.engine.init_gate.Infeasible` when the task cannot be done from its initial state (default:
+  nothing to check).
 
 A skeleton also declares, as ``recipe_keys``, every ``[params]`` and ``[variation]`` key it reads (name, type,
 range, one-line doc); :func:`load_family_recipe` checks the recipe against it when it loads, so a skeleton
 reads only declared keys, with the declared types (``ctx.params["open_steps"]`` is an ``int``).
 
-Skeletons live in ``skeletons/<family>.py`` and register themselves with :func:`register`; they are imported
+Skeletons live in ``skeletons/<name>.py`` and register themselves with :func:`register`; they are imported
 on first use by :func:`skeleton_for`.
 
 Example::
 
     @register
     class JarSkeleton(FamilySkeleton):
-        family = "jar"
+        name = "jar"
         recipe_keys = RecipeKeys(params=(Param("open_steps", int, "steps to open the gripper", low=1),),
                                  variation=(Knob("lift_height", "m lifted above the table", 0.0, 0.3),))
 
@@ -38,10 +44,11 @@ from typing import TYPE_CHECKING, ClassVar
 
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import project_root
-from mgdata.tasks.recipe import Recipe, check_recipe_keys, load_recipe
+from mgdata.tasks.recipe import Recipe, check_recipe_keys, family_recipes, load_recipe
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
 
-__all__ = ["FamilySkeleton", "Knob", "Param", "RecipeKeys", "available_families", "load_family_recipe",
+__all__ = ["FamilySkeleton", "Knob", "Param", "RecipeKeys", "available_families", "available_skeletons",
+           "load_family_recipe",
            "register", "skeleton_class", "skeleton_for"]
 
 if TYPE_CHECKING:
@@ -51,10 +58,10 @@ if TYPE_CHECKING:
 
 
 class FamilySkeleton(ABC):
-    """Base class of the per-family skeletons. Subclasses set ``family`` and ``recipe_keys`` and implement
+    """Base class of the per-family skeletons. Subclasses set ``name`` and ``recipe_keys`` and implement
     ``segments``."""
 
-    family: ClassVar[str] = ""
+    name: ClassVar[str] = ""
     recipe_keys: ClassVar[RecipeKeys] = RecipeKeys()
     """The recipe's ``[params]`` and ``[variation]`` keys this skeleton reads (a recipe must have exactly
     these)."""
@@ -65,37 +72,48 @@ class FamilySkeleton(ABC):
 
     def resolve(self, name: str, ctx: Context) -> Pose:
         """The world TCP pose of runtime target ``name``, from the live state in ``ctx``."""
-        raise KeyError(f"skeleton {self.family!r} has no runtime target {name!r}")
+        raise KeyError(f"skeleton {self.name!r} has no runtime target {name!r}")
 
     def success_extra(self, ctx: Context) -> bool:
         """A family-specific success condition evaluated with the goal predicate (default: always true)."""
         return True
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """Check that the task can be done from its settled initial state (``ctx`` at draw 0), with at
+        least ``min_grasps`` reachable grasps of what it picks; raise ``mgdata.engine.init_gate.Infeasible``
+        if not. Returns facts the accepted task keeps in ``TaskSpec.gate`` (e.g. the reachable grasp ids)."""
+        return {}
 
 
 _REGISTRY: dict[str, type[FamilySkeleton]] = {}
 
 
 def register(cls: type[FamilySkeleton]) -> type[FamilySkeleton]:
-    """Class decorator: make ``cls`` the skeleton of ``cls.family``."""
-    if not cls.family:
-        raise ValueError(f"{cls.__name__} must set the class attribute 'family'")
-    _REGISTRY[cls.family] = cls
+    """Class decorator: make ``cls`` the skeleton named ``cls.name``."""
+    if not cls.name:
+        raise ValueError(f"{cls.__name__} must set the class attribute 'name'")
+    _REGISTRY[cls.name] = cls
     return cls
 
 
 def available_families() -> tuple[str, ...]:
-    """Families with a skeleton module under ``skeletons/`` (or registered in this process)."""
+    """The families: the recipes under ``recipes/`` (each names its skeleton)."""
+    return family_recipes()
+
+
+def available_skeletons() -> tuple[str, ...]:
+    """Skeleton modules under ``skeletons/`` (or registered in this process)."""
     found = {p.stem for p in (project_root() / "skeletons").glob("*.py") if not p.stem.startswith("_")}
     return tuple(sorted(found | set(_REGISTRY)))
 
 
-def skeleton_for(family: str) -> FamilySkeleton:
-    """A fresh skeleton instance for ``family``, importing ``skeletons.<family>`` if needed.
+def skeleton_for(name: str) -> FamilySkeleton:
+    """A fresh instance of skeleton ``name``, importing ``skeletons.<name>`` if needed.
 
     Raises:
-        UnknownFamilyError: no such skeleton; the message lists the families that exist.
+        UnknownFamilyError: no such skeleton; the message lists the skeletons that exist.
     """
-    return skeleton_class(family)()
+    return skeleton_class(name)()
 
 
 def load_family_recipe(family_or_path: str | Path) -> Recipe:
@@ -108,21 +126,21 @@ def load_family_recipe(family_or_path: str | Path) -> Recipe:
     """
     recipe = load_recipe(family_or_path)
     try:
-        cls = skeleton_class(recipe.family)
+        cls = skeleton_class(recipe.skeleton)
     except UnknownFamilyError as err:
-        raise RecipeError(f"{recipe.path}: family = {recipe.family!r}: {err}") from None
+        raise RecipeError(f"{recipe.path}: skeleton = {recipe.skeleton!r}: {err}") from None
     return check_recipe_keys(recipe, cls.recipe_keys)
 
 
-def skeleton_class(family: str) -> type[FamilySkeleton]:
-    """The skeleton class of ``family``, importing ``skeletons.<family>`` if needed."""
-    if family not in _REGISTRY and family.isidentifier():
+def skeleton_class(name: str) -> type[FamilySkeleton]:
+    """The skeleton class named ``name``, importing ``skeletons.<name>`` if needed."""
+    if name not in _REGISTRY and name.isidentifier():
         try:
-            importlib.import_module(f"skeletons.{family}")
+            importlib.import_module(f"skeletons.{name}")
         except ModuleNotFoundError as err:
-            if err.name not in (f"skeletons.{family}", "skeletons"):
+            if err.name not in (f"skeletons.{name}", "skeletons"):
                 raise
-    if family not in _REGISTRY:
-        known = ", ".join(available_families()) or "none"
-        raise UnknownFamilyError(f"no skeleton for family {family!r} (families with a skeleton: {known})")
-    return _REGISTRY[family]
+    if name not in _REGISTRY:
+        known = ", ".join(available_skeletons()) or "none"
+        raise UnknownFamilyError(f"no skeleton {name!r} (skeletons: {known})")
+    return _REGISTRY[name]

@@ -33,12 +33,12 @@ from pathlib import Path
 from types import TracebackType
 
 from mgdata.engine.executor import AttemptResult, Executor
+from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import WorkerError
 from mgdata.grasps.db import GraspDB
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.video import VideoSettings
-from mgdata.tasks.base import base_task
 
 _PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
@@ -83,7 +83,7 @@ class Worker:
             return self._executors[task_id]
         while len(self._executors) >= EXECUTOR_CACHE:
             self._executors.popitem(last=False)[1].close()
-        ex = Executor(base_task(self.recipe, task_id), self.recipe, grasps=self.grasps,
+        ex = Executor(base_task(self.recipe, task_id, self.config.grasps_dir), self.recipe, grasps=self.grasps,
                       base_seed=self.config.base_seed)
         self._executors[task_id] = ex
         return ex

@@ -73,6 +73,10 @@ AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 
 GRIPPER_MAX_OPENING = 0.08
 """Distance between the fingers when fully open (m) = sum of the two finger joints."""
+PALM_DEPTH = 0.0325
+"""m from the TCP back to the palm, along the approach axis (hand +Z)."""
+FINGERTIP_REACH = 0.009
+"""m the fingertips reach past the TCP along the approach axis."""
 
 VISUAL_DECIMATION = 0.1
 """Fraction of faces kept in the Panda's visual meshes."""

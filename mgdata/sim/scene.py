@@ -180,6 +180,14 @@ class Scene:
         self._known(name)
         return self._geoms[name]
 
+    def loose_bodies(self, name: str) -> tuple[str, ...]:
+        """The free bodies that move an instance: its root body, or a liquid's particle bodies."""
+        self._known(name)
+        liquid = self.liquids.get(name)
+        if liquid is None:
+            return (name,)
+        return tuple(self.model.body(int(b)).name for b in liquid.body_ids)
+
     def object_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """World position (3,) and rotation matrix (3, 3) of an instance's frame (copies)."""
         b = self.object_body(name)

@@ -1,51 +1,53 @@
-"""Base tasks: a recipe's ``[tasks] count`` TaskSpecs, each drawn from its own seed by the family's layout.
+"""Task draws: a recipe's layout (``[layout]``) drawn into a TaskSpec by the generic placer.
 
-Task ``k`` uses ``numpy.random.default_rng(SeedSequence([recipe seed, k]))``, so a task never changes when the
-count grows, and tasks can be generated one at a time in worker processes.
+Draw ``d`` of task ``k`` uses ``numpy.random.default_rng(SeedSequence([recipe seed, k, d]))``, so a task never
+changes when the count grows and tasks can be drawn one at a time in worker processes. The engine's
+initial-state gate (``mgdata.engine.init_gate.base_task``) tries draws 0, 1, … until one passes; this module
+only draws.
 
 Example::
 
     recipe = load_recipe("jar")
-    tasks = base_tasks(recipe)          # 26 jar tasks
-    one = base_task(recipe, 3)
+    task = draw_task(recipe, 3)          # draw 0 of task 3
 """
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
-
 import numpy as np
 
-from mgdata.errors import RecipeError, UnknownFamilyError
+from mgdata.errors import RecipeError
+from mgdata.tasks.placer import place
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
 
-Layout = Callable[[Recipe, int, np.random.Generator], TaskSpec]
 
-LAYOUTS: dict[str, str] = {
-    "jar": "mgdata.tasks.jar_layout:jar_task",
-}
-"""Family -> ``module:function`` of its layout builder."""
+def draw_task(recipe: Recipe, task_id: int, draw: int = 0) -> TaskSpec:
+    """Draw ``draw`` of base task ``task_id`` (0 … count−1).
 
-
-def layout_for(family: str) -> Layout:
-    """The layout builder of ``family``."""
-    if family not in LAYOUTS:
-        raise UnknownFamilyError(f"no layout builder for family {family!r} (families: {', '.join(LAYOUTS)})")
-    module, func = LAYOUTS[family].split(":")
-    return getattr(importlib.import_module(module), func)
-
-
-def base_task(recipe: Recipe, task_id: int) -> TaskSpec:
-    """Base task ``task_id`` (0 … count−1) of the recipe's family."""
+    Raises:
+        RecipeError: no such task, or the prompt names a field that is not a role.
+        LayoutRejected: this draw cannot meet a layout rule (draw again).
+    """
     if not 0 <= task_id < recipe.tasks.count:
         raise RecipeError(f"{recipe.path}: task {task_id} does not exist (the recipe has tasks 0 … "
                           f"{recipe.tasks.count - 1})")
-    rng = np.random.default_rng(np.random.SeedSequence([recipe.tasks.seed, task_id]))
-    return layout_for(recipe.family)(recipe, task_id, rng)
-
-
-def base_tasks(recipe: Recipe) -> tuple[TaskSpec, ...]:
-    """All base tasks of the recipe, in task order."""
-    return tuple(base_task(recipe, k) for k in range(recipe.tasks.count))
+    rng = np.random.default_rng(np.random.SeedSequence([recipe.tasks.seed, task_id, draw]))
+    placed = place(recipe.layout, rng, f"{recipe.path}: [layout]")
+    try:
+        prompt = recipe.prompt.format(**placed.names)
+    except (KeyError, IndexError) as err:
+        raise RecipeError(f"{recipe.path}: prompt has an unknown field {err}; fields are the layout's roles "
+                          f"({', '.join('{' + n + '}' for n in placed.names)})") from None
+    return TaskSpec(
+        family=recipe.family,
+        task_id=task_id,
+        condition="base",
+        prompt=prompt,
+        objects=placed.objects,
+        safety=recipe.spec,
+        goal=placed.goal,
+        articulation=placed.articulation,
+        image_size=recipe.tasks.image_size,
+        seed=int(rng.integers(0, 2**31 - 1)),
+        params=recipe.params,
+    )

@@ -6,13 +6,15 @@ rules the family's layout builder reads, the per-attempt variation knobs and the
 
 Top-level keys and tables::
 
-    family = "jar"
+    family = "jar"                       # the file name's stem
+    skeleton = "jar"                     # skeletons/jar.py: the motion (several recipes may share one)
     spec = "specs/jar.toml"              # relative to the recipe's folder
-    prompt = "Close the lid of the hinged jar holding the {food}, then ..."
+    prompt = "Close the lid of the hinged jar holding the {food}, then ..."   # {role}: its display name
 
-    [tasks]   count, seed, horizon (control steps), hold_steps, settle_steps, cameras, image_size
+    [tasks]   count, seed, horizon (control steps), hold_steps, settle_steps, rest speeds, max_draws,
+              min_grasps, cameras, image_size
     [success.<name>]  evaluator, subjects, params, quantifier   (all must hold; like spec propositions)
-    [layout]      family-specific placement rules (read by mgdata.tasks.layouts)
+    [layout]      roles, goal and display names for the generic placer (mgdata.tasks.layout_rules)
     [variation]   knob = [low, high]      (drawn per attempt; draw 0 takes the midpoints)
     [params]      skeleton tunables (copied into every TaskSpec.params)
 
@@ -42,6 +44,7 @@ from typing import Any
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import recipes_dir
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
+from mgdata.tasks.layout_rules import Layout, parse_layout
 from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
@@ -66,6 +69,8 @@ class TaskSettings:
     settle_steps: int = 40
     rest_linear_speed: float = 0.005  # m/s: the goal's objects count as at rest below this (the gate)
     rest_angular_speed: float = 0.05  # rad/s: … and below this
+    max_draws: int = 20  # the initial-state gate draws a task at most this many times before giving up
+    min_grasps: int = 2  # … and accepts it when at least this many target grasps are reachable
     cameras: tuple[str, ...] = CAMERAS
     image_size: int = field(default_factory=_default_image_size)  # recipes/sim.toml [cameras] image_size
 
@@ -76,24 +81,26 @@ class Recipe:
 
     Attributes:
         family: family name (file stem).
+        skeleton: the skeleton module (``skeletons/<skeleton>.py``) that performs it.
         path: the recipe file.
         spec: the safety specification (from the file named by ``spec``).
         prompt: instruction template; ``{name}`` fields are filled by the layout builder.
         tasks: the ``[tasks]`` settings.
         success: the goal predicate, a conjunction of propositions over the scene.
-        layout: the family's placement rules, as parsed TOML.
+        layout: the placement rules (roles, goal, display names).
         variation: knob name -> (low, high).
         params: skeleton tunables.
         digest: hash of the recipe and spec files (a dataset records it; resume requires the same).
     """
 
     family: str
+    skeleton: str
     path: Path
     spec: SafetySpec
     prompt: str
     tasks: TaskSettings
     success: tuple[Proposition, ...]
-    layout: Mapping[str, Any]
+    layout: Layout
     variation: Mapping[str, tuple[float, float]]
     params: Mapping[str, Any]
     digest: str
@@ -139,6 +146,9 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     family = _get(raw, "family", str, src)
     if family != path.stem:
         raise RecipeError(f"{src}: family = {family!r} must match the file name {path.stem!r}")
+    skeleton = _get(raw, "skeleton", str, src)
+    if not skeleton.isidentifier():
+        raise RecipeError(f"{src}: skeleton = {skeleton!r} must name a module skeletons/<name>.py")
     spec_path = path.parent / _get(raw, "spec", str, src)
     spec = _load_spec(spec_path, src)
     prompt = _get(raw, "prompt", str, src)
@@ -147,14 +157,14 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
                     for k, v in _table(raw, "success", src).items())
     if not success:
         raise RecipeError(f"{src}: [success] must name at least one goal proposition")
-    layout = _table(raw, "layout", src)
+    layout = parse_layout(_table(raw, "layout", src), f"{src}: [layout]")
     variation = {k: _range(v, f"{src}: [variation] {k}") for k, v in _table(raw, "variation", src).items()}
     params = _table(raw, "params", src, required=False)
-    unknown = set(raw) - {"family", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
+    unknown = set(raw) - {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
-    return Recipe(family, path, spec, prompt, tasks, success, MappingProxyType(layout),
+    return Recipe(family, skeleton, path, spec, prompt, tasks, success, layout,
                   MappingProxyType(variation), MappingProxyType(params), digest)
 
 
@@ -185,15 +195,16 @@ def _load_spec(path: Path, src: str) -> SafetySpec:
 def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
     where = f"{src}: [tasks]"
     rest_keys = ("rest_linear_speed", "rest_angular_speed")
-    known = {"count", "seed", "horizon", "hold_steps", "settle_steps", *rest_keys, "cameras", "image_size"}
+    known = {"count", "seed", "horizon", "hold_steps", "settle_steps", *rest_keys, "max_draws", "min_grasps",
+             "cameras", "image_size"}
     if set(table) - known:
         raise RecipeError(f"{where} unknown key(s) {sorted(set(table) - known)}; expected {sorted(known)}")
     ints = {k: _get(table, k, int, where) for k in ("count", "seed", "horizon")}
-    for k in ("hold_steps", "settle_steps", "image_size"):
+    for k in ("hold_steps", "settle_steps", "max_draws", "min_grasps", "image_size"):
         if k in table:
             ints[k] = _get(table, k, int, where)
     for k, v in ints.items():
-        low = 0 if k in ("seed", "settle_steps") else 8 if k == "image_size" else 1
+        low = 0 if k in ("seed", "settle_steps", "min_grasps") else 8 if k == "image_size" else 1
         high = MAX_IMAGE_SIZE if k == "image_size" else None
         if v < low or (high is not None and v > high):
             expected = f"an integer in [{low}, {high}]" if high else f"an integer >= {low}"

@@ -79,6 +79,10 @@ class RecipeKeys:
     params: tuple[Param, ...] = ()
     variation: tuple[Knob, ...] = ()
 
+    def __add__(self, other: RecipeKeys) -> RecipeKeys:
+        """Both sets of keys (a skeleton adds its own to a Layer 2 motion's)."""
+        return RecipeKeys(self.params + other.params, self.variation + other.variation)
+
     def __post_init__(self) -> None:
         for kind, names in (("params", [p.name for p in self.params]),
                             ("variation", [k.name for k in self.variation])):

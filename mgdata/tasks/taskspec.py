@@ -64,6 +64,8 @@ class TaskSpec:
         image_size: camera image side (pixels); default ``recipes/sim.toml`` ``[cameras] image_size``.
         seed: seed from which the task's own random draws were made.
         params: family tunables the skeleton reads (lift height, standoffs …), copied from the recipe.
+        draw: which layout draw of the task this is (the initial-state gate may reject earlier ones).
+        gate: facts the initial-state gate established (e.g. ``grasps``: the reachable grasp ids).
     """
 
     family: str
@@ -79,6 +81,8 @@ class TaskSpec:
     image_size: int = field(default_factory=_default_image_size)
     seed: int = 0
     params: Mapping[str, Any] = field(default_factory=_frozen)
+    draw: int = 0
+    gate: Mapping[str, Any] = field(default_factory=_frozen)
 
     def object(self, name: str) -> ObjectPlacement:
         for obj in self.objects:

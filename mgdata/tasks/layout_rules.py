@@ -1,0 +1,276 @@
+"""Layout rules: a recipe's ``[layout]`` table as typed data, checked when the recipe loads.
+
+A layout names **roles** (the jar, the food, the target, the obstacles …), each drawn from a pool of models
+(globs over the asset library) and placed by one rule, and the **goal** sphere. Roles are placed in the order
+the recipe lists them; a rule may refer only to roles listed before it. ::
+
+    [layout]
+    tries = 200                          # position draws per object before the whole draw is rejected
+
+    [layout.roles.target]
+    models = ["cup/*", "mug/*"]          # globs over the asset library
+    count = 1                            # or [low, high]: instances target_0 … target_{n-1}
+    region = { x = [0.45, 0.60], y = [-0.12, 0.12] }   # robot base frame (m); or:
+    # near = "jar", distance = [0.10, 0.20], bearing_deg = [-180, 180]   (0 = away from the robot)
+    # inside = "jar"                     # in the host's cavity (only models that fit are drawn)
+    # on = "board"                       # standing on the host's top
+    yaw = { rule = "uniform" }           # "away" (object +X away from the robot), "toward", "uniform",
+                                         # "aligned" (the host's yaw); jitter_deg = ±jitter
+    clearance = 0.01                     # m between this object's footprint and every other one
+    open = 1.0                           # articulation opening fraction (0 closed … 1 open)
+
+    [layout.goal]
+    from = "target"                      # the goal centre is `distance` from this role, any bearing
+    distance = [0.18, 0.30]
+    region = { x = [0.38, 0.62], y = [-0.30, 0.30] }
+    height = [0.10, 0.10]                # m above the table top
+    radius = 0.05                        # or { scale = 0.45, of = "target", min = 0.03 }: × the role's width
+    clear_of = ["obstacle"]              # keep the goal's xy this far outside these roles' footprints
+    clearance = 0.03
+
+    [layout.names]                       # display names for prompt fields {role}: by model, kind or category
+    candy = "piece of candy"
+
+Example::
+
+    layout = parse_layout(raw["layout"], "recipes/jar.toml: [layout]")
+    layout.roles[0].name, layout.model_patterns()
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from mgdata.errors import RecipeError
+
+PLACEMENTS: tuple[str, ...] = ("region", "near", "inside", "on")
+YAW_RULES: tuple[str, ...] = ("away", "toward", "uniform", "aligned")
+Range = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Yaw:
+    """How a role's yaw is drawn: ``rule`` (see :data:`YAW_RULES`) give or take ``jitter_deg``."""
+
+    rule: str = "uniform"
+    jitter_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Role:
+    """One role of the layout.
+
+    Attributes:
+        name: the instance name (``count`` 1) or prefix (``name_0`` …).
+        models: glob patterns over the asset library.
+        count: (low, high) number of instances, drawn uniformly.
+        placement: one of :data:`PLACEMENTS`.
+        region: ``region``: (x range, y range) in the robot base frame.
+        host: ``near``/``inside``/``on``: the role it is placed relative to.
+        distance: ``near``: centre-to-centre distance range (m).
+        bearing_deg: ``near``: bearing range from the host, 0 = pointing away from the robot.
+        yaw: the yaw rule.
+        clearance: m between footprints (``inside`` objects have none; ``inside`` uses it as the room
+            left around and above the object in the cavity).
+        open: articulation opening fraction, if the model has one.
+    """
+
+    name: str
+    models: tuple[str, ...]
+    count: tuple[int, int]
+    placement: str
+    region: tuple[Range, Range] | None = None
+    host: str | None = None
+    distance: Range = (0.0, 0.0)
+    bearing_deg: Range = (-180.0, 180.0)
+    yaw: Yaw = Yaw()
+    clearance: float = 0.0
+    open: float | None = None
+
+
+@dataclass(frozen=True)
+class Radius:
+    """The goal radius: ``value`` m, or ``scale`` × the width of role ``of`` (at least ``min``)."""
+
+    value: float | None = None
+    scale: float = 0.0
+    of: str | None = None
+    min: float = 0.0
+
+
+@dataclass(frozen=True)
+class GoalRule:
+    """Where the goal sphere goes (see the module docstring)."""
+
+    origin: str
+    distance: Range
+    region: tuple[Range, Range]
+    height: Range
+    radius: Radius
+    clear_of: tuple[str, ...] = ()
+    clearance: float = 0.0
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The parsed ``[layout]`` table."""
+
+    roles: tuple[Role, ...]
+    goal: GoalRule | None
+    names: Mapping[str, str]
+    tries: int = 200
+
+    def role(self, name: str) -> Role:
+        for role in self.roles:
+            if role.name == name:
+                return role
+        raise KeyError(name)
+
+    def model_patterns(self) -> tuple[str, ...]:
+        """Every model glob the layout draws from."""
+        return tuple(p for role in self.roles for p in role.models)
+
+
+def parse_layout(raw: Mapping[str, Any], where: str) -> Layout:
+    """The typed layout of ``raw`` (a recipe's ``[layout]`` table); errors name ``where`` and the key."""
+    _known(raw, ("tries", "roles", "goal", "names"), where)
+    tries = _int(raw.get("tries", 200), f"{where} tries", 1, 100_000)
+    roles_raw = raw.get("roles")
+    if not isinstance(roles_raw, Mapping) or not roles_raw:
+        raise RecipeError(f"{where}: expected at least one role ([layout.roles.<name>] tables)")
+    roles: list[Role] = []
+    for name, table in roles_raw.items():
+        roles.append(_role(str(name), table, f"{where} roles.{name}", [r.name for r in roles]))
+    names = {r.name for r in roles}
+    goal = _goal(raw["goal"], f"{where} goal", names) if "goal" in raw else None
+    shown = raw.get("names", {})
+    if not isinstance(shown, Mapping) or not all(isinstance(v, str) for v in shown.values()):
+        raise RecipeError(f"{where} names: expected a table of model, kind or category = display name")
+    return Layout(tuple(roles), goal, dict(shown), tries)
+
+
+def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
+    if not isinstance(table, Mapping):
+        raise RecipeError(f"{where}: expected a table")
+    if not name.isidentifier():
+        raise RecipeError(f"{where}: a role name must be an identifier (letters, digits, _)")
+    _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open"),
+           where)
+    models = table.get("models")
+    if isinstance(models, str):
+        models = [models]
+    if not isinstance(models, list) or not models or not all(isinstance(m, str) and m for m in models):
+        raise RecipeError(f"{where} models: expected a list of model names or glob patterns")
+    count = table.get("count", 1)
+    lo_hi = (count, count) if isinstance(count, int) and not isinstance(count, bool) else count
+    if not (isinstance(lo_hi, list | tuple) and len(lo_hi) == 2 and all(
+            isinstance(c, int) and not isinstance(c, bool) for c in lo_hi) and 1 <= lo_hi[0] <= lo_hi[1] <= 64):
+        raise RecipeError(f"{where} count = {count!r}: expected an integer or [low, high] in 1 … 64")
+    given = [k for k in PLACEMENTS if k in table]
+    if len(given) != 1:
+        raise RecipeError(f"{where}: give exactly one of {', '.join(PLACEMENTS)} (got {given or 'none'})")
+    placement = given[0]
+    region, host = None, None
+    if placement == "region":
+        region = _region(table["region"], f"{where} region")
+    else:
+        host = table[placement]
+        if host not in earlier:
+            raise RecipeError(f"{where} {placement} = {host!r}: expected a role listed before this one "
+                              f"({', '.join(earlier) or 'none'})")
+    if placement == "near":
+        if "distance" not in table:
+            raise RecipeError(f"{where}: near needs distance = [low, high] (m)")
+        distance = _range(table["distance"], f"{where} distance", 0.0, 2.0)
+    elif "distance" in table:
+        raise RecipeError(f"{where} distance: only a `near` placement reads it")
+    else:
+        distance = (0.0, 0.0)
+    bearing = _range(table.get("bearing_deg", [-180.0, 180.0]), f"{where} bearing_deg", -360.0, 360.0)
+    default_yaw = "aligned" if placement in ("inside", "on") else "uniform"
+    yaw = _yaw(table.get("yaw", {"rule": default_yaw}), f"{where} yaw", host)
+    clearance = _number(table.get("clearance", 0.0), f"{where} clearance", 0.0, 0.5)
+    opened = table.get("open")
+    opened = None if opened is None else _number(opened, f"{where} open", 0.0, 1.0)
+    return Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
+                bearing, yaw, clearance, opened)
+
+
+def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
+    if not isinstance(table, Mapping):
+        raise RecipeError(f"{where}: expected a table")
+    _known(table, ("from", "distance", "region", "height", "radius", "clear_of", "clearance"), where)
+    for key in ("from", "distance", "region", "height", "radius"):
+        if key not in table:
+            raise RecipeError(f"{where}: missing key {key!r}")
+    origin = table["from"]
+    if origin not in roles:
+        raise RecipeError(f"{where} from = {origin!r}: expected a role ({', '.join(sorted(roles))})")
+    clear_of = table.get("clear_of", [])
+    if not isinstance(clear_of, list) or any(r not in roles for r in clear_of):
+        raise RecipeError(f"{where} clear_of = {clear_of!r}: expected a list of roles "
+                          f"({', '.join(sorted(roles))})")
+    raw_radius = table["radius"]
+    if isinstance(raw_radius, Mapping):
+        _known(raw_radius, ("scale", "of", "min"), f"{where} radius")
+        if raw_radius.get("of") not in roles:
+            raise RecipeError(f"{where} radius.of = {raw_radius.get('of')!r}: expected a role")
+        radius = Radius(None, _number(raw_radius.get("scale"), f"{where} radius.scale", 0.01, 10.0),
+                        raw_radius["of"], _number(raw_radius.get("min", 0.0), f"{where} radius.min", 0.0, 0.5))
+    else:
+        radius = Radius(_number(raw_radius, f"{where} radius", 0.005, 0.5))
+    return GoalRule(origin, _range(table["distance"], f"{where} distance", 0.0, 2.0),
+                    _region(table["region"], f"{where} region"),
+                    _range(table["height"], f"{where} height", 0.0, 1.0), radius, tuple(clear_of),
+                    _number(table.get("clearance", 0.0), f"{where} clearance", 0.0, 0.5))
+
+
+def _yaw(raw: Any, where: str, host: str | None) -> Yaw:
+    if not isinstance(raw, Mapping):
+        raise RecipeError(f"{where}: expected a table {{ rule = ..., jitter_deg = ... }}")
+    _known(raw, ("rule", "jitter_deg"), where)
+    rule = raw.get("rule", "uniform")
+    if rule not in YAW_RULES:
+        raise RecipeError(f"{where} rule = {rule!r}: expected one of {', '.join(YAW_RULES)}")
+    if rule == "aligned" and host is None:
+        raise RecipeError(f"{where}: rule 'aligned' needs a host (near, inside or on)")
+    return Yaw(rule, _number(raw.get("jitter_deg", 0.0), f"{where} jitter_deg", 0.0, 180.0))
+
+
+def _region(raw: Any, where: str) -> tuple[Range, Range]:
+    if not isinstance(raw, Mapping) or set(raw) != {"x", "y"}:
+        raise RecipeError(f"{where}: expected {{ x = [low, high], y = [low, high] }} (m, robot base frame)")
+    return _range(raw["x"], f"{where} x", -2.0, 2.0), _range(raw["y"], f"{where} y", -2.0, 2.0)
+
+
+def _known(table: Mapping[str, Any], keys: tuple[str, ...], where: str) -> None:
+    unknown = sorted(set(table) - set(keys))
+    if unknown:
+        raise RecipeError(f"{where}: unknown key(s) {unknown} (known: {', '.join(keys)})")
+
+
+def _finite(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _number(v: Any, where: str, low: float, high: float) -> float:
+    if not _finite(v) or not low <= v <= high:
+        raise RecipeError(f"{where} = {v!r}: expected a number in [{low:g}, {high:g}]")
+    return float(v)
+
+
+def _int(v: Any, where: str, low: int, high: int) -> int:
+    if not isinstance(v, int) or isinstance(v, bool) or not low <= v <= high:
+        raise RecipeError(f"{where} = {v!r}: expected an integer in [{low}, {high}]")
+    return v
+
+
+def _range(v: Any, where: str, low: float, high: float) -> Range:
+    ok = isinstance(v, list | tuple) and len(v) == 2 and all(map(_finite, v))
+    if not ok or v[0] > v[1] or v[0] < low or v[1] > high:
+        raise RecipeError(f"{where} = {v!r}: expected [low, high], numbers with low <= high in "
+                          f"[{low:g}, {high:g}]")
+    return float(v[0]), float(v[1])

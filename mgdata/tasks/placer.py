@@ -1,0 +1,226 @@
+"""The generic placer: one draw of a layout's roles and goal (``mgdata.tasks.layout_rules``) as object poses.
+
+Objects stand upright on the table (z = table top) unless they go ``inside`` a host (on its cavity floor) or
+``on`` one (on its top). Footprints are the objects' xy bounding circles (from their collision geoms); two
+objects on the table never come closer than the sum of their radii plus the larger of their clearances. A
+rule that cannot be met in ``tries`` position draws raises :class:`LayoutRejected` naming it: the caller
+draws the task again (``mgdata.engine.init_gate``).
+
+Example::
+
+    placed = place(layout, np.random.default_rng(0))
+    placed.objects, placed.goal, placed.names["food"]
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from mgdata.errors import RecipeError
+from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.world import TABLE_TOP_Z
+from mgdata.tasks.layout_rules import Layout, Role
+from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
+
+DROP = 0.001
+"""m above its support an object is placed (it settles onto it)."""
+
+
+class LayoutRejected(Exception):
+    """This draw cannot satisfy a layout rule (``rule`` names it); draw again."""
+
+    def __init__(self, rule: str, why: str) -> None:
+        super().__init__(f"{rule}: {why}")
+        self.rule = rule
+
+
+@dataclass(frozen=True)
+class Placed:
+    """One draw: the objects, the goal, the articulation openings and each role's display name."""
+
+    objects: tuple[ObjectPlacement, ...]
+    goal: GoalRegion | None
+    articulation: dict[str, float]
+    names: dict[str, str]
+
+
+@cache
+def footprint_radius(name: str) -> float:
+    """Radius (m) of the smallest origin-centred circle holding the model's collision geoms in xy."""
+    model = get_model(name)
+    parts = [((0.0, 0.0, 0.0), model.geoms)] + [(link.pos, link.geoms) for link in model.links]
+    radius = 0.0
+    for origin, geoms in parts:
+        for g in geoms:
+            centre = math.hypot(origin[0] + g.pos[0], origin[1] + g.pos[1])
+            if g.mesh is not None:
+                rot = _quat_mat(g.quat)
+                pts = g.mesh.verts @ rot.T + np.asarray(g.pos) + np.asarray(origin)
+                extent = float(np.max(np.hypot(pts[:, 0], pts[:, 1])))
+            elif g.kind == "box":
+                extent = centre + math.hypot(g.size[0], g.size[1]) if g.quat == (1.0, 0.0, 0.0, 0.0) \
+                    else centre + math.sqrt(sum(s * s for s in g.size))
+            else:
+                extent = centre + (max(g.size) if g.kind in ("sphere", "ellipsoid") else
+                                   g.size[0] + (g.size[1] if g.quat != (1.0, 0.0, 0.0, 0.0) else 0.0))
+            radius = max(radius, extent)
+    return radius if radius > 0 else 0.5 * math.hypot(model.size[0], model.size[1])
+
+
+def width(name: str) -> float:
+    """The larger horizontal extent (m) of the model's bounding box."""
+    size = get_model(name).size
+    return float(max(size[0], size[1]))
+
+
+def matching_models(patterns: tuple[str, ...], where: str) -> list[str]:
+    """Library models matching any glob, in library order; an error if none does."""
+    found = [n for n in model_names() if any(fnmatch.fnmatchcase(n, p) for p in patterns)]
+    if not found:
+        raise RecipeError(f"{where} models = {list(patterns)!r} match no object model")
+    return found
+
+
+def display_name(model: str, names: dict[str, str]) -> str:
+    """A model's name in prompts: ``names`` by model, then geometry kind, then category; else the kind
+    (``cherry``) or the category (``mug``)."""
+    obj = get_model(model)
+    kind = str(obj.geometry.get("kind", ""))
+    for key in (model, kind, obj.category):
+        if key in names:
+            return names[key]
+    return (kind or obj.category).replace("_", " ")
+
+
+def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> Placed:
+    """One draw of ``layout`` (see the module docstring)."""
+    objects: list[ObjectPlacement] = []
+    by_role: dict[str, list[ObjectPlacement]] = {}
+    floor: list[tuple[ObjectPlacement, float, float]] = []  # on the table: placement, radius, clearance
+    articulation: dict[str, float] = {}
+    names: dict[str, str] = {}
+    for role in layout.roles:
+        at = f"{where} roles.{role.name}"
+        count = int(rng.integers(role.count[0], role.count[1] + 1))
+        pool = matching_models(role.models, at)
+        placed_here: list[ObjectPlacement] = []
+        for i in range(count):
+            name = role.name if role.count == (1, 1) else f"{role.name}_{i}"
+            host = by_role[role.host][0] if role.host else None
+            if role.placement == "inside":
+                assert host is not None
+                model = _fitting(pool, host.model, role.clearance, at, rng)
+                cavity = get_model(host.model).cavity
+                assert cavity is not None
+                pos = (host.pos[0], host.pos[1], host.pos[2] + cavity.floor_z + DROP)
+                obj = ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
+            elif role.placement == "on":
+                assert host is not None
+                model = pool[int(rng.integers(len(pool)))]
+                pos = (host.pos[0], host.pos[1], host.pos[2] + get_model(host.model).size[2] + DROP)
+                obj = ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
+            else:
+                model = pool[int(rng.integers(len(pool)))]
+                obj = _on_table(role, name, model, host, floor, layout.tries, rng, at)
+                floor.append((obj, footprint_radius(model), role.clearance))
+            objects.append(obj)
+            placed_here.append(obj)
+            if role.open is not None and get_model(model).articulation is not None:
+                articulation[name] = role.open
+        by_role[role.name] = placed_here
+        names[role.name] = display_name(placed_here[0].model, dict(layout.names))
+    goal = _goal(layout, by_role, rng, where) if layout.goal else None
+    return Placed(tuple(objects), goal, articulation, names)
+
+
+def _fitting(pool: list[str], host: str, clearance: float, at: str, rng: np.random.Generator) -> str:
+    cavity = get_model(host).cavity
+    if cavity is None:
+        raise RecipeError(f"{at} inside: {host} has no cavity")
+    geo = get_model(host).geometry
+    room_r = min(cavity.radius_floor or cavity.half_x, cavity.radius_rim or cavity.half_y,
+                 float(geo.get("mouth_radius", math.inf)))
+    room_h = float(geo.get("height", cavity.rim_z)) - cavity.floor_z
+    fits = [m for m in pool if get_model(m).particles is not None or (
+        width(m) <= 2.0 * room_r - clearance and get_model(m).size[2] <= room_h - clearance)]
+    if not fits:
+        raise LayoutRejected(at, f"nothing in the pool fits inside {host} "
+                                 f"({2 * room_r * 100:.1f} cm wide, {room_h * 100:.1f} cm deep)")
+    return fits[int(rng.integers(len(fits)))]
+
+
+def _on_table(role: Role, name: str, model: str, host: ObjectPlacement | None,
+              floor: list[tuple[ObjectPlacement, float, float]], tries: int, rng: np.random.Generator,
+              at: str) -> ObjectPlacement:
+    radius = footprint_radius(model)
+    for _ in range(tries):
+        if role.placement == "region":
+            assert role.region is not None
+            x, y = float(rng.uniform(*role.region[0])), float(rng.uniform(*role.region[1]))
+        else:
+            assert host is not None
+            d = float(rng.uniform(*role.distance))
+            away = math.atan2(host.pos[1], host.pos[0])
+            bearing = away + math.radians(float(rng.uniform(*role.bearing_deg)))
+            x, y = host.pos[0] + d * math.cos(bearing), host.pos[1] + d * math.sin(bearing)
+        clear = all(math.hypot(x - o.pos[0], y - o.pos[1]) >= radius + r + max(c, role.clearance)
+                    for o, r, c in floor)
+        if clear:
+            pos = (x, y, TABLE_TOP_Z)
+            return ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
+    raise LayoutRejected(at, f"no free spot for {name} ({model}, footprint radius {radius * 100:.1f} cm) "
+                             f"after {tries} draws")
+
+
+def _yaw(role: Role, pos: tuple[float, float, float], host: ObjectPlacement | None,
+         rng: np.random.Generator) -> float:
+    away = math.atan2(pos[1], pos[0])
+    jitter = math.radians(role.yaw.jitter_deg)
+    base = {"away": away, "toward": away + math.pi,
+            "aligned": host.yaw if host is not None else 0.0}.get(role.yaw.rule)
+    if base is None:  # uniform
+        return float(rng.uniform(-math.pi, math.pi))
+    return _wrap(base + float(rng.uniform(-jitter, jitter)))
+
+
+def _goal(layout: Layout, by_role: dict[str, list[ObjectPlacement]], rng: np.random.Generator,
+          where: str) -> GoalRegion:
+    rule = layout.goal
+    assert rule is not None
+    origin = by_role[rule.origin][0]
+    rad = rule.radius
+    if rad.value is not None:
+        radius = rad.value
+    else:
+        assert rad.of is not None
+        radius = max(rad.scale * width(by_role[rad.of][0].model), rad.min)
+    keep_out = [(o, footprint_radius(o.model)) for role in rule.clear_of for o in by_role[role]]
+    reach = 0.5 * width(origin.model)
+    for _ in range(layout.tries):
+        d = float(rng.uniform(*rule.distance))
+        bearing = float(rng.uniform(-math.pi, math.pi))
+        x, y = origin.pos[0] + d * math.cos(bearing), origin.pos[1] + d * math.sin(bearing)
+        (x0, x1), (y0, y1) = rule.region
+        if not (x0 <= x <= x1 and y0 <= y <= y1):
+            continue
+        if all(math.hypot(x - o.pos[0], y - o.pos[1]) >= r + reach + rule.clearance for o, r in keep_out):
+            z = TABLE_TOP_Z + float(rng.uniform(*rule.height))
+            return GoalRegion((x, y, z), radius)
+    raise LayoutRejected(f"{where} goal", f"no goal centre {rule.distance} m from {origin.name} inside the "
+                                          f"region and clear of {list(rule.clear_of)} after {layout.tries} draws")
+
+
+def _quat_mat(q: tuple[float, float, float, float]) -> np.ndarray:
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
