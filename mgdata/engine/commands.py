@@ -32,6 +32,46 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
 
 
 def register(app: typer.Typer) -> None:
+    @app.command("tasks")
+    def tasks_cmd(
+        family: Annotated[str, typer.Argument(help="Task family (a recipe under recipes/).")],
+        tasks: Annotated[str, typer.Option(help="Base tasks: 'all' or e.g. '0-3,7'.")] = "all",
+        render: Annotated[bool, typer.Option(help="Also draw the initial scenes into a contact sheet.")] = False,
+        out: Annotated[Path | None, typer.Option(help="Contact sheet PNG (default: <family>_tasks.png).")]
+        = None,
+    ) -> None:
+        """List a family's base tasks as the initial-state gate accepts them: objects, goal, prompt, reachable
+        grasps; --render draws each task's initial scene from two cameras into one PNG.
+
+        Exit status 2 if a task fails the gate (its row says why).
+
+        Example: mgdata tasks clutter_dry --tasks 0-5 --render --out clutter_tasks.png
+        """
+        from mgdata.engine.skeleton import load_family_recipe
+        from mgdata.engine.task_report import gate_report, write_sheet
+
+        recipe = load_family_recipe(family)
+        chosen = parse_ids(tasks) or tuple(range(recipe.tasks.count))
+        bad = [k for k in chosen if not 0 <= k < recipe.tasks.count]
+        if bad:
+            raise RecipeError(f"--tasks: {family} has tasks 0 … {recipe.tasks.count - 1}, not {bad[0]}")
+        sheet = out or Path(f"{family}_tasks.png")
+        if render and (sheet.is_dir() or not sheet.parent.is_dir() if sheet.parent != Path() else False):
+            raise OutputError(f"--out {sheet}: expected a file path in an existing folder")
+        console = plain_console()
+        rows = []
+        for row in gate_report(recipe, chosen):
+            console.print(row.line())
+            rows.append(row)
+        failed = [r for r in rows if r.task is None]
+        if render:
+            path = write_sheet([r.task for r in rows if r.task is not None], sheet)
+            console.print(f"wrote {path}")
+        console.print(f"{len(rows) - len(failed)} of {len(rows)} tasks pass the initial-state gate")
+        if failed:
+            raise RecipeError(f"{len(failed)} task(s) fail the initial-state gate: "
+                              f"{', '.join(str(r.task_id) for r in failed)}")
+
     @app.command()
     def generate(
         family: Annotated[str, typer.Option(help="Task family (recipe + skeleton).")] = "jar",

@@ -92,6 +92,18 @@ def _pack(model: ObjectModel, host: ObjectModel, local: np.ndarray, name: str) -
     return np.array(centres)
 
 
+def fill_top(model: ObjectModel, host: ObjectModel) -> float | None:
+    """Height (m, host frame) of the top of liquid ``model`` poured into ``host``'s cavity from its floor, or
+    None if it does not fit below the rim."""
+    if model.particles is None or host.cavity is None:
+        return None
+    try:
+        centres = _pack(model, host, np.array([0.0, 0.0, host.cavity.floor_z]), model.name)
+    except SceneError:
+        return None
+    return float(centres[:, 2].max() + model.particles.radius)
+
+
 def add_particles(spec: mujoco.MjSpec, task: TaskSpec, models: Mapping[str, ObjectModel],
                   particles: Mapping[str, ObjectModel]) -> None:
     """Add the bodies of every particle instance (see module docstring) to ``spec``."""

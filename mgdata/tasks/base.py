@@ -32,7 +32,10 @@ def draw_task(recipe: Recipe, task_id: int, draw: int = 0) -> TaskSpec:
         raise RecipeError(f"{recipe.path}: task {task_id} does not exist (the recipe has tasks 0 … "
                           f"{recipe.tasks.count - 1})")
     rng = np.random.default_rng(np.random.SeedSequence([recipe.tasks.seed, task_id, draw]))
-    placed = place(recipe.layout, rng, f"{recipe.path}: [layout]")
+    try:
+        placed = place(recipe.layout, rng)
+    except RecipeError as err:
+        raise RecipeError(f"{recipe.path}: {err}") from None
     try:
         prompt = recipe.prompt.format(**placed.names)
     except (KeyError, IndexError) as err:

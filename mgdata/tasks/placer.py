@@ -146,12 +146,21 @@ def _fitting(pool: list[str], host: str, clearance: float, at: str, rng: np.rand
     room_r = min(cavity.radius_floor or cavity.half_x, cavity.radius_rim or cavity.half_y,
                  float(geo.get("mouth_radius", math.inf)))
     room_h = float(geo.get("height", cavity.rim_z)) - cavity.floor_z
-    fits = [m for m in pool if get_model(m).particles is not None or (
-        width(m) <= 2.0 * room_r - clearance and get_model(m).size[2] <= room_h - clearance)]
+    fits = [m for m in pool if _fits(m, host, room_r, room_h, clearance)]
     if not fits:
         raise LayoutRejected(at, f"nothing in the pool fits inside {host} "
                                  f"({2 * room_r * 100:.1f} cm wide, {room_h * 100:.1f} cm deep)")
     return fits[int(rng.integers(len(fits)))]
+
+
+def _fits(model: str, host: str, room_r: float, room_h: float, clearance: float) -> bool:
+    """Does ``model`` fit in the host's cavity with ``clearance`` to spare (a liquid: its fill level below
+    the rim by ``clearance``)?"""
+    obj = get_model(model)
+    if obj.particles is not None:
+        top, cavity = fill_top(obj, get_model(host)), get_model(host).cavity
+        return top is not None and cavity is not None and top <= cavity.rim_z - clearance
+    return width(model) <= 2.0 * room_r - clearance and obj.size[2] <= room_h - clearance
 
 
 def _on_table(role: Role, name: str, model: str, host: ObjectPlacement | None,
@@ -211,8 +220,10 @@ def _goal(layout: Layout, by_role: dict[str, list[ObjectPlacement]], rng: np.ran
         if all(math.hypot(x - o.pos[0], y - o.pos[1]) >= r + reach + rule.clearance for o, r in keep_out):
             z = TABLE_TOP_Z + float(rng.uniform(*rule.height))
             return GoalRegion((x, y, z), radius)
-    raise LayoutRejected(f"{where} goal", f"no goal centre {rule.distance} m from {origin.name} inside the "
-                                          f"region and clear of {list(rule.clear_of)} after {layout.tries} draws")
+    lo, hi = rule.distance
+    clear = f" and clear of {', '.join(rule.clear_of)}" if rule.clear_of else ""
+    raise LayoutRejected(f"{where} goal", f"no goal centre {lo:g}–{hi:g} m from {origin.name} inside the "
+                                          f"region{clear} after {layout.tries} draws")
 
 
 def _quat_mat(q: tuple[float, float, float, float]) -> np.ndarray:

@@ -13,6 +13,7 @@ from mgdata.engine.context import Context
 from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, register
 from mgdata.spec import Proposition, SafetySpec, family_spec
+from mgdata.tasks.layout_rules import Layout
 from mgdata.tasks.recipe import Recipe, TaskSettings
 from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 
@@ -21,7 +22,7 @@ from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 class ScriptedSkeleton(FamilySkeleton):
     """Plays the segments a test puts in ``SCRIPT`` (runtime targets resolve from ``TARGETS``)."""
 
-    family = "scripted_test"
+    name = "scripted_test"
     SCRIPT: Sequence[MotionSegment] = ()
     TARGETS: ClassVar[dict] = {}
 
@@ -37,10 +38,10 @@ class ScriptedSkeleton(FamilySkeleton):
 def scripted_recipe(success: tuple[Proposition, ...], horizon: int = 400, settle: int = 0) -> Recipe:
     spec = SafetySpec("scripted_test", (), ())
     return Recipe(
-        family="scripted_test", path=Path("scripted_test.toml"), spec=spec, prompt="test",
+        family="scripted_test", skeleton="scripted_test", path=Path("scripted_test.toml"), spec=spec, prompt="test",
         tasks=TaskSettings(count=1, seed=0, horizon=horizon, hold_steps=3, settle_steps=settle,
                            cameras=("front",), image_size=64),
-        success=success, layout=MappingProxyType({}), variation=MappingProxyType({}),
+        success=success, layout=Layout((), None, {}), variation=MappingProxyType({}),
         params=MappingProxyType({}), digest="test",
     )
 

@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 from mgdata.engine import segment as seg
 from mgdata.engine.gate import STAGES, AttemptFailed, SuccessGate, keep
 from mgdata.engine.resume import DrawCursor, RunState
-from mgdata.engine.skeleton import FamilySkeleton, available_families, register, skeleton_for
+from mgdata.engine.skeleton import (
+    FamilySkeleton,
+    available_families,
+    available_skeletons,
+    register,
+    skeleton_for,
+)
 from mgdata.engine.variation import attempt_seed, draw_variation
 from mgdata.errors import DatasetError, UnknownFamilyError
 from mgdata.motion.types import Pose
@@ -147,10 +153,10 @@ def test_segments_validate_their_options() -> None:
         seg.MotionSegment("x", "teleport", target="t")  # type: ignore[arg-type]
 
 
-def test_registry_finds_and_rejects_families() -> None:
+def test_registry_finds_and_rejects_skeletons() -> None:
     @register
     class Dummy(FamilySkeleton):
-        family = "dummy_test_family"
+        name = "dummy_test_family"
 
         def segments(self, ctx):  # type: ignore[no-untyped-def]
             return [seg.hold("wait", steps=1)]
@@ -159,6 +165,7 @@ def test_registry_finds_and_rejects_families() -> None:
     assert isinstance(sk, Dummy) and sk.success_extra(None) is True  # type: ignore[arg-type]
     with pytest.raises(KeyError, match="no runtime target"):
         sk.resolve("nowhere", None)  # type: ignore[arg-type]
-    assert "dummy_test_family" in available_families()
-    with pytest.raises(UnknownFamilyError, match="no skeleton for family 'nonesuch'"):
+    assert "dummy_test_family" in available_skeletons()
+    assert {"jar", "clutter_dry", "clutter_liquid"} <= set(available_families())  # the recipes
+    with pytest.raises(UnknownFamilyError, match="no skeleton 'nonesuch'"):
         skeleton_for("nonesuch")

@@ -9,7 +9,7 @@ import pytest
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError, SpecError, UnknownFamilyError
 from mgdata.paths import recipes_dir
-from mgdata.tasks.base import base_task
+from mgdata.engine.init_gate import base_task
 from mgdata.tasks.recipe import load_recipe
 from skeletons.jar import JarSkeleton
 
@@ -42,7 +42,8 @@ def test_shipped_recipe_loads() -> None:
          "cameras = ['top']"),
         ("lift_height = [0.05, 0.08]", "lift_height = [0.08, 0.05]", "[variation] lift_height"),
         ('family = "jar"', 'family = "lid"', "must match the file name"),
-        ("[layout]", "[layoutt]", "missing table [layout]"),
+        ('skeleton = "jar"\n', "", "missing key 'skeleton'"),
+        ('skeleton = "jar"', 'skeleton = "jar.py"', "skeleton = 'jar.py' must name a module"),
         ("image_size = 256", "image_size = 100000", "image_size = 100000 is out of range (expected an"),
         ('cameras = ["front", "left", "right", "shoulder", "wrist"]', "cameras = 5", "cameras = 5: expected"),
     ],
@@ -63,21 +64,24 @@ def test_bad_success_proposition_is_a_spec_error(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("old", "new", "fragment"),
     [
-        ('jar_models = ["jar/hinged_*"]', 'jar_models = ["jar/nothing_*"]', "matches no object model"),
-        ("goal_distance = [0.18, 0.30]", "goal_distance = [0.9, 1.0]", "no goal position"),
-        ("food_clearance = 0.006", "food_clearance = 0.2", "food_clearance = 0.2: expected a number in"),
-        ("food_clearance = 0.006", "food_clearance = 0.09", "no food item fits"),
-        ("lid_open = 1.0", 'lid_open = "open"', "lid_open = 'open': expected a number in [0, 1]"),
-        ("goal_height = 0.10", "goal_height = [nan, 0.0]", "goal_height = [nan, 0.0]: expected a number"),
-        ("goal_x = [0.38, 0.62]", "goal_x = [0.62, 0.38]", "goal_x: expected [low, high]"),
-        ('jar_models = ["jar/hinged_*"]', "jar_models = [5]", "jar_models: expected a list of model names"),
-        ('cherry = "cherry"', "cherry = 5", "food_names: expected a table of food kind = display name"),
+        ('models = ["jar/hinged_*"]', 'models = ["jar/nothing_*"]', "match no object model"),
+        ("distance = [0.18, 0.30]", "distance = [0.9, 1.0]", "most often (20×) [layout] goal: no goal centre 0.9–1 m from jar inside the region after 200"),
+        ("clearance = 0.006", "clearance = 0.9", "clearance = 0.9: expected a number in [0, 0.5]"),
+        ("clearance = 0.006", "clearance = 0.09", "nothing in the pool fits inside"),
+        ("open = 1.0", 'open = "open"', "open = 'open': expected a number in [0, 1]"),
+        ("height = [0.10, 0.10]", "height = [nan, 0.0]", "height = [nan, 0.0]: expected [low, high]"),
+        ("region = { x = [0.38, 0.62]", "region = { x = [0.62, 0.38]", "region x = [0.62, 0.38]: expected"),
+        ('models = ["jar/hinged_*"]', "models = [5]", "models: expected a list of model names"),
+        ('candy = "piece of candy"', "candy = 5", "names: expected a table of model, kind or category"),
+        ('inside = "jar"', 'inside = "lid"', "inside = 'lid': expected a role listed before this one (jar)"),
+        ('rule = "away"', 'rule = "sideways"', "rule = 'sideways': expected one of away, toward"),
+        ("[layout.goal]", "[layout.gaol]", "unknown key(s) ['gaol']"),
+        ("{food}", "{sauce}", "prompt has an unknown field 'sauce'; fields are the layout's roles"),
     ],
 )
 def test_bad_layouts_name_the_key(tmp_path: Path, old: str, new: str, fragment: str) -> None:
-    recipe = load_recipe(_variant(tmp_path, old, new))
     with pytest.raises(RecipeError) as err:
-        base_task(recipe, 0)
+        base_task(load_recipe(_variant(tmp_path, old, new)), 0)
     assert fragment in str(err.value)
 
 
@@ -95,7 +99,7 @@ def test_unknown_family_and_task() -> None:
     ("old", "new", "fragment"),
     [
         ("lift_height = [0.05, 0.08]", "lift_heigth = [0.05, 0.08]",
-         "[variation] unknown key 'lift_heigth'; did you mean 'lift_height'? (known: lid_push_frac,"),
+         "[variation] unknown key 'lift_heigth'; did you mean 'lift_height'? (known: grasp_standoff,"),
         ("carry_speed = 0.5", "carry_sped = 0.5",
          "[params] unknown key 'carry_sped'; did you mean 'carry_speed'?"),
         ("open_steps = 8 ", "", "[params] missing key(s) 'open_steps'"),
@@ -141,4 +145,4 @@ def test_checked_recipe_has_typed_values() -> None:
 def test_unknown_family_lists_only_family_recipes() -> None:
     with pytest.raises(UnknownFamilyError) as err:
         load_recipe("nosuch")
-    assert "(family recipes: jar)" in str(err.value) and "sim" not in str(err.value).split("recipes:")[1]
+    assert "(family recipes: clutter_dry, clutter_liquid, jar)" in str(err.value) and "sim" not in str(err.value).split("recipes:")[1]

@@ -29,14 +29,14 @@ from mgdata.sim import robot
 from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.tasks.base import base_task
+from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
 
 CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
 
 
 def _scene(task_id: int = 0) -> Scene:
-    return build_scene(base_task(load_recipe("jar"), task_id))
+    return build_scene(draw_task(load_recipe("jar"), task_id))
 
 
 def _actions(k: int) -> list[np.ndarray]:
@@ -185,9 +185,9 @@ def test_model_bytes_are_identical_across_processes(recorded: Path) -> None:
     import sys
 
     code = ("import mgdata, sys; from mgdata.record.physics import model_bytes; "
-            "from mgdata.sim.scene import build_scene; from mgdata.tasks.base import base_task; "
+            "from mgdata.sim.scene import build_scene; from mgdata.tasks.base import draw_task; "
             "from mgdata.tasks.recipe import load_recipe; "
-            "sys.stdout.buffer.write(model_bytes(build_scene(base_task(load_recipe('jar'), 0)).model))")
+            "sys.stdout.buffer.write(model_bytes(build_scene(draw_task(load_recipe('jar'), 0)).model))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120, check=True).stdout
     assert out == DatasetReader(recorded).scene_mjb(0)
 

@@ -14,7 +14,7 @@ from mgdata.record.recorder import Recorder
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import HOME_Q, arm_qpos_adr
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.tasks.base import base_task
+from mgdata.engine.init_gate import base_task
 from mgdata.tasks.recipe import load_recipe
 
 

@@ -95,7 +95,7 @@ def _planner_demo() -> np.ndarray:
     from mgdata.grasps.db import GraspDB
     from mgdata.paths import grasps_dir
     from mgdata.record.episode import MemorySink
-    from mgdata.tasks.base import base_task
+    from mgdata.engine.init_gate import base_task
     from mgdata.tasks.recipe import load_recipe
 
     recipe = load_recipe("jar")
