@@ -373,7 +373,7 @@ def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
 def test_keep_failed_puts_labelled_negatives_in_a_separate_dataset(tmp_path: Path) -> None:
     recipe_file = small_recipe(tmp_path)
     # a lid that starts below vertical falls shut while the scene settles: the lid-push target cannot exist
-    recipe_file.write_text(recipe_file.read_text().replace("lid_open = 1.0", "lid_open = 0.5"))
+    recipe_file.write_text(recipe_file.read_text().replace("open = 1.0", "open = 0.5"))
     out = tmp_path / "jar"
     proc = _generate(out, recipe_file, 1, "--keep-failed", "--max-attempts", "2")
     assert proc.returncode == 1 and "max attempts reached" in proc.stdout, proc.stdout + proc.stderr

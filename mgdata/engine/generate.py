@@ -21,6 +21,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import os
@@ -49,6 +50,7 @@ from mgdata.record.metafiles import read_info
 from mgdata.record.writer import DatasetWriter
 from mgdata.sim.config import SIM_TOML
 from mgdata.tasks.base import draw_task
+from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import Recipe
 
 STATE_FILE = "meta/mgdata_generate.json"
@@ -140,8 +142,9 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
     if not grasps.is_dir():
         raise GraspDBError(f"grasp database folder {grasps} does not exist")
     GraspDB.load_dir(grasps)
-    for task_id in tasks:
-        draw_task(recipe, task_id)  # the layout's rules; workers run the initial-state gate per task
+    for task_id in tasks:  # the layout's rules; workers run the initial-state gate per task
+        with contextlib.suppress(LayoutRejected):  # a rejected draw is redrawn by the gate
+            draw_task(recipe, task_id)
     return recipe, tasks, grasps
 
 

@@ -165,11 +165,13 @@ class PickAndCarry:
         return grasp
 
     def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
-        """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses have IK solutions with
+        """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses (raised by the draw's
+        ``grasp_height``; the gate uses the midpoint) have IK solutions with
         ``grasp_margin`` from the joint limits and the arm ``grasp_clearance`` clear of everything but the
         object and its riders (a wrist that grazes the table in the plan hits it once the servos sag).
         From the state in ``ctx`` with a task-derived seed, so every worker agrees."""
         pose_obj = ctx.object_pose(self.obj).matrix()
+        pose_obj[:3, 3] += pose_obj[:3, 2] * ctx.variation["grasp_height"]  # this draw's grasp height
         margin = float(ctx.param("grasp_margin"))
         planner = ctx.planner
         planner.checker.configure(self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)), None,

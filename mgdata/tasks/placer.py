@@ -23,6 +23,7 @@ import numpy as np
 
 from mgdata.errors import RecipeError
 from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.particles import fill_top
 from mgdata.sim.world import TABLE_TOP_Z
 from mgdata.tasks.layout_rules import Layout, Role
 from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
@@ -107,7 +108,7 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
     for role in layout.roles:
         at = f"{where} roles.{role.name}"
         count = int(rng.integers(role.count[0], role.count[1] + 1))
-        pool = matching_models(role.models, at)
+        pool = _hosts(layout, role, matching_models(role.models, at), at)
         placed_here: list[ObjectPlacement] = []
         for i in range(count):
             name = role.name if role.count == (1, 1) else f"{role.name}_{i}"
@@ -138,14 +139,38 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
     return Placed(tuple(objects), goal, articulation, names)
 
 
-def _fitting(pool: list[str], host: str, clearance: float, at: str, rng: np.random.Generator) -> str:
+def _hosts(layout: Layout, role: Role, pool: list[str], at: str) -> list[str]:
+    """``pool`` without the models that some later ``inside`` role (the food, the liquid) cannot fit in."""
+    guests = [(matching_models(r.models, f"{at} (guest {r.name})"), r.clearance) for r in layout.roles
+              if r.placement == "inside" and r.host == role.name]
+    if not guests:
+        return pool
+    kept = [h for h in pool if all(any(_fits(m, h, *_room(h), c) for m in ms) for ms, c in guests)]
+    if not kept:
+        raise RecipeError(f"{at} models: what goes inside ({', '.join(r for r in _guest_names(layout, role))})"
+                          f" fits in none of them")
+    return kept
+
+
+def _guest_names(layout: Layout, role: Role) -> list[str]:
+    return [r.name for r in layout.roles if r.placement == "inside" and r.host == role.name]
+
+
+def _room(host: str) -> tuple[float, float]:
+    """Radius and depth (m) of the space inside ``host``'s cavity (its mouth, if narrower)."""
     cavity = get_model(host).cavity
     if cavity is None:
-        raise RecipeError(f"{at} inside: {host} has no cavity")
+        return 0.0, 0.0
     geo = get_model(host).geometry
     room_r = min(cavity.radius_floor or cavity.half_x, cavity.radius_rim or cavity.half_y,
                  float(geo.get("mouth_radius", math.inf)))
-    room_h = float(geo.get("height", cavity.rim_z)) - cavity.floor_z
+    return room_r, float(geo.get("height", cavity.rim_z)) - cavity.floor_z
+
+
+def _fitting(pool: list[str], host: str, clearance: float, at: str, rng: np.random.Generator) -> str:
+    if get_model(host).cavity is None:
+        raise RecipeError(f"{at} inside: {host} has no cavity")
+    room_r, room_h = _room(host)
     fits = [m for m in pool if _fits(m, host, room_r, room_h, clearance)]
     if not fits:
         raise LayoutRejected(at, f"nothing in the pool fits inside {host} "
@@ -157,6 +182,8 @@ def _fits(model: str, host: str, room_r: float, room_h: float, clearance: float)
     """Does ``model`` fit in the host's cavity with ``clearance`` to spare (a liquid: its fill level below
     the rim by ``clearance``)?"""
     obj = get_model(model)
+    if get_model(host).cavity is None:
+        return False
     if obj.particles is not None:
         top, cavity = fill_top(obj, get_model(host)), get_model(host).cavity
         return top is not None and cavity is not None and top <= cavity.rim_z - clearance
