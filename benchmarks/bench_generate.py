@@ -1,7 +1,7 @@
-"""Generation benchmark for the jar family (prints figures; targets from issues 4 and 8).
+"""Generation benchmark per family (prints figures; targets from issues 4, 8 and 9).
 
-For each worker count it runs ``mgdata generate`` (the same code path as the CLI, the shipped recipe: five
-cameras at 256², H.264) into a fresh dataset and prints:
+For each family and worker count it runs ``mgdata generate`` (the same code path as the CLI, the shipped
+recipe: five cameras at 256², H.264) into a fresh dataset and prints:
 
 - wall time, kept demonstrations, attempts and the gate yield (kept / attempts; target >= 80 %);
 - kept demonstrations per core-hour two ways: per **CPU-hour** (user + system CPU time of this process and
@@ -16,7 +16,8 @@ Rendering runs on Mesa's llvmpipe, which starts one thread per core unless told 
 it to one thread per worker (``LP_NUM_THREADS=1``, set before MuJoCo or any worker starts) so that a worker
 is one core and the per-core figures mean what they say.
 
-Run: ``.venv/bin/python benchmarks/bench_generate.py [--n 40] [--workers 1 2] [--tasks all]``
+Run: ``.venv/bin/python benchmarks/bench_generate.py [--family jar clutter_dry] [--n 40] [--workers 1 2]
+[--tasks all]``
 """
 
 from __future__ import annotations
@@ -50,18 +51,18 @@ class Measured:
     cpu: float  # CPU seconds the run consumed (all processes)
 
 
-def run(n: int, workers: int, tasks: str, root: Path) -> Measured:
-    out = root / f"jar_w{workers}"
+def run(family: str, n: int, workers: int, tasks: str, root: Path) -> Measured:
+    out = root / f"{family}_w{workers}"
     shutil.rmtree(out, ignore_errors=True)
     cpu0 = cpu_seconds()
-    summary = generate(GenerateJob(family="jar", n=n, out=out, tasks=parse_ids(tasks), workers=workers))
+    summary = generate(GenerateJob(family=family, n=n, out=out, tasks=parse_ids(tasks), workers=workers))
     return Measured(summary, cpu_seconds() - cpu0)  # the pool is joined by now: its CPU time is counted
 
 
-def report(m: Measured, workers: int) -> None:
+def report(m: Measured, family: str, workers: int) -> None:
     summary = m.summary
     wall_core_h = summary.wall * workers / 3600.0
-    print(f"\n== workers {workers}: {summary.stopped}")
+    print(f"\n== {family}, workers {workers}: {summary.stopped}")
     print(f"wall {summary.wall:.1f} s ({summary.wall / 60:.1f} min) · CPU {m.cpu:.1f} s "
           f"({m.cpu / max(summary.wall * workers, 1e-9):.0%} of wall × workers) · kept {summary.kept} · "
           f"attempts {summary.attempts} · yield {summary.yield_:.0%}")
@@ -79,6 +80,7 @@ def report(m: Measured, workers: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--family", nargs="+", default=["jar"], help="families (recipes) to measure")
     parser.add_argument("--n", type=int, default=40, help="kept demonstrations per run")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--tasks", default="all")
@@ -87,15 +89,17 @@ def main() -> None:
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench_generate_"))
     print(f"LP_NUM_THREADS={os.environ['LP_NUM_THREADS']} · {os.cpu_count()} cores visible")
     try:
-        results: dict[int, Measured] = {}
-        for w in args.workers:
-            results[w] = run(args.n, w, args.tasks, root)
-            report(results[w], w)
-        if 1 in results and len(results) > 1:
-            most = max(results)
-            one, many = results[1].summary, results[most].summary
-            print(f"\nspeed-up {most} workers vs 1: {one.wall / many.wall:.2f}× (kept-per-wall-hour ratio "
-                  f"{(many.kept / many.wall) / (one.kept / one.wall):.2f}×)")
+        for family in args.family:
+            results: dict[int, Measured] = {}
+            for w in args.workers:
+                results[w] = run(family, args.n, w, args.tasks, root)
+                report(results[w], family, w)
+            if 1 in results and len(results) > 1:
+                most = max(results)
+                one, many = results[1].summary, results[most].summary
+                ratio = (many.kept / many.wall) / (one.kept / one.wall)
+                print(f"\n{family}: speed-up {most} workers vs 1: {one.wall / many.wall:.2f}× "
+                      f"(kept-per-wall-hour ratio {ratio:.2f}×)")
     finally:
         if args.keep is None:
             shutil.rmtree(root, ignore_errors=True)

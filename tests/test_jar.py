@@ -20,6 +20,7 @@ import pytest
 
 from mgdata.engine import segment as s
 from mgdata.engine.executor import Executor
+from mgdata.engine.init_gate import base_task
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record.episode import MemorySink
@@ -29,7 +30,6 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.cameras import WRIST, WRIST_BODY_GEOM
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
-from mgdata.engine.init_gate import base_task
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
 from skeletons.jar import JarSkeleton

@@ -36,7 +36,8 @@ def register(app: typer.Typer) -> None:
     def tasks_cmd(
         family: Annotated[str, typer.Argument(help="Task family (a recipe under recipes/).")],
         tasks: Annotated[str, typer.Option(help="Base tasks: 'all' or e.g. '0-3,7'.")] = "all",
-        render: Annotated[bool, typer.Option(help="Also draw the initial scenes into a contact sheet.")] = False,
+        render: Annotated[bool, typer.Option(help="Also draw the initial scenes into a contact sheet.")]
+        = False,
         out: Annotated[Path | None, typer.Option(help="Contact sheet PNG (default: <family>_tasks.png).")]
         = None,
     ) -> None:

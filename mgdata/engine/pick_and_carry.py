@@ -3,9 +3,9 @@
 The paper's pick: open, move to a pre-grasp pose ``grasp_standoff`` back along the grasp's approach axis
 (free), approach it (linear), let the arm settle, close, lift until the lowest point of the held object is
 ``lift_margin`` above the tallest other object (at least ``lift_height``), carry it (free, or ``level`` in a
-straight line; slowed to ``carry_speed``) over the goal, lower it into the goal (linear) and hold it there. Grasps come from the grasp
-DB, round-robin over the task's reachable valid grasps (:meth:`PickAndCarry.reachable_grasps`, also the
-initial-state gate's check). Objects riding inside the held one (food in a jar, liquid in a cup) are the
+straight line; slowed to ``carry_speed``) over the goal, lower it into the goal (linear) and hold it there.
+Grasps come from the grasp DB, round-robin over the task's reachable valid grasps
+(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check). Objects riding inside the held one (food in a jar, liquid in a cup) are the
 segments' ``riders``. For families that put an object down: :meth:`PickAndCarry.place_segments` (lower,
 release, retreat).
 
@@ -108,7 +108,8 @@ class PickAndCarry:
     def carry_segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Carry the held object over the goal, lower it in and hold it still."""
         p = ctx.params
-        held = {"gripper": "close", "attached": self.obj, "riders": self.riders, "speed": float(p["carry_speed"])}
+        held = {"gripper": "close", "attached": self.obj, "riders": self.riders,
+                "speed": float(p["carry_speed"])}
         carry = (s.linear("carry", "over_goal", orientation="slerp", **held) if self.level  # type: ignore[arg-type]
                  else s.free("carry", "over_goal", **held))  # type: ignore[arg-type]
         return [

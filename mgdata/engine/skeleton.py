@@ -8,7 +8,8 @@ does the planning, execution, monitoring and gating. Hooks beyond ``segments``:
 
 * ``resolve(name, ctx)``: the world TCP pose of a named runtime target, computed from the live state;
 * ``success_extra(ctx)``: a family check on top of the recipe's goal predicate (default: none);
-* ``feasibility(ctx, min_grasps)``: the skeleton's part of the initial-state gate (``mgdata.engine.init_gate``): raise
+* ``feasibility(ctx, min_grasps)``: the skeleton's part of the initial-state gate
+  (``mgdata.engine.init_gate``): raise
   :class:`~mgdata.engine.init_gate.Infeasible` when the task cannot be done from its initial state (default:
   nothing to check).
 

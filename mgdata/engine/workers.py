@@ -83,7 +83,8 @@ class Worker:
             return self._executors[task_id]
         while len(self._executors) >= EXECUTOR_CACHE:
             self._executors.popitem(last=False)[1].close()
-        ex = Executor(base_task(self.recipe, task_id, self.config.grasps_dir), self.recipe, grasps=self.grasps,
+        task = base_task(self.recipe, task_id, self.config.grasps_dir)
+        ex = Executor(task, self.recipe, grasps=self.grasps,
                       base_seed=self.config.base_seed)
         self._executors[task_id] = ex
         return ex

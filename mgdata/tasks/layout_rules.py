@@ -166,8 +166,9 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
         raise RecipeError(f"{where} models: expected a list of model names or glob patterns")
     count = table.get("count", 1)
     lo_hi = (count, count) if isinstance(count, int) and not isinstance(count, bool) else count
-    if not (isinstance(lo_hi, list | tuple) and len(lo_hi) == 2 and all(
-            isinstance(c, int) and not isinstance(c, bool) for c in lo_hi) and 1 <= lo_hi[0] <= lo_hi[1] <= 64):
+    ints = isinstance(lo_hi, list | tuple) and len(lo_hi) == 2 and all(
+        isinstance(c, int) and not isinstance(c, bool) for c in lo_hi)
+    if not (ints and 1 <= lo_hi[0] <= lo_hi[1] <= 64):
         raise RecipeError(f"{where} count = {count!r}: expected an integer or [low, high] in 1 … 64")
     given = [k for k in PLACEMENTS if k in table]
     if len(given) != 1:
@@ -218,8 +219,9 @@ def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
         _known(raw_radius, ("scale", "of", "min"), f"{where} radius")
         if raw_radius.get("of") not in roles:
             raise RecipeError(f"{where} radius.of = {raw_radius.get('of')!r}: expected a role")
-        radius = Radius(None, _number(raw_radius.get("scale"), f"{where} radius.scale", 0.01, 10.0),
-                        raw_radius["of"], _number(raw_radius.get("min", 0.0), f"{where} radius.min", 0.0, 0.5))
+        scale = _number(raw_radius.get("scale"), f"{where} radius.scale", 0.01, 10.0)
+        least = _number(raw_radius.get("min", 0.0), f"{where} radius.min", 0.0, 0.5)
+        radius = Radius(None, scale, raw_radius["of"], least)
     else:
         radius = Radius(_number(raw_radius, f"{where} radius", 0.005, 0.5))
     return GoalRule(origin, _range(table["distance"], f"{where} distance", 0.0, 2.0),

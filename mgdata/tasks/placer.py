@@ -147,8 +147,8 @@ def _hosts(layout: Layout, role: Role, pool: list[str], at: str) -> list[str]:
         return pool
     kept = [h for h in pool if all(any(_fits(m, h, *_room(h), c) for m in ms) for ms, c in guests)]
     if not kept:
-        raise RecipeError(f"{at} models: what goes inside ({', '.join(r for r in _guest_names(layout, role))})"
-                          f" fits in none of them")
+        guests_named = ", ".join(_guest_names(layout, role))
+        raise RecipeError(f"{at} models: what goes inside ({guests_named}) fits in none of them")
     return kept
 
 

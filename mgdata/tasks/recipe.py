@@ -160,7 +160,8 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     layout = parse_layout(_table(raw, "layout", src), f"{src}: [layout]")
     variation = {k: _range(v, f"{src}: [variation] {k}") for k, v in _table(raw, "variation", src).items()}
     params = _table(raw, "params", src, required=False)
-    unknown = set(raw) - {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
+    top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
+    unknown = set(raw) - top
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]

@@ -38,7 +38,8 @@ class ScriptedSkeleton(FamilySkeleton):
 def scripted_recipe(success: tuple[Proposition, ...], horizon: int = 400, settle: int = 0) -> Recipe:
     spec = SafetySpec("scripted_test", (), ())
     return Recipe(
-        family="scripted_test", skeleton="scripted_test", path=Path("scripted_test.toml"), spec=spec, prompt="test",
+        family="scripted_test", skeleton="scripted_test", path=Path("scripted_test.toml"), spec=spec,
+        prompt="test",
         tasks=TaskSettings(count=1, seed=0, horizon=horizon, hold_steps=3, settle_steps=settle,
                            cameras=("front",), image_size=64),
         success=success, layout=Layout((), None, {}), variation=MappingProxyType({}),

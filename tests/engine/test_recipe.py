@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
+from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError, SpecError, UnknownFamilyError
 from mgdata.paths import recipes_dir
-from mgdata.engine.init_gate import base_task
 from mgdata.tasks.recipe import load_recipe
 from skeletons.jar import JarSkeleton
 
@@ -65,7 +65,8 @@ def test_bad_success_proposition_is_a_spec_error(tmp_path: Path) -> None:
     ("old", "new", "fragment"),
     [
         ('models = ["jar/hinged_*"]', 'models = ["jar/nothing_*"]', "match no object model"),
-        ("distance = [0.18, 0.30]", "distance = [0.9, 1.0]", "most often (20×) [layout] goal: no goal centre 0.9–1 m from jar inside the region after 200"),
+        ("distance = [0.18, 0.30]", "distance = [0.9, 1.0]",
+         "most often (20×) [layout] goal: no goal centre 0.9–1 m from jar inside the region after 200"),
         ("clearance = 0.006", "clearance = 0.9", "clearance = 0.9: expected a number in [0, 0.5]"),
         ("clearance = 0.006", "clearance = 0.09", "nothing in the pool fits inside"),
         ("open = 1.0", 'open = "open"', "open = 'open': expected a number in [0, 1]"),
@@ -145,4 +146,6 @@ def test_checked_recipe_has_typed_values() -> None:
 def test_unknown_family_lists_only_family_recipes() -> None:
     with pytest.raises(UnknownFamilyError) as err:
         load_recipe("nosuch")
-    assert "(family recipes: clutter_dry, clutter_liquid, jar)" in str(err.value) and "sim" not in str(err.value).split("recipes:")[1]
+    message = str(err.value)
+    assert "(family recipes: clutter_dry, clutter_liquid, jar)" in message
+    assert "sim" not in message.split("recipes:")[1]

@@ -13,6 +13,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from mgdata.engine.init_gate import base_task
 from mgdata.errors import DatasetError
 from mgdata.paths import project_root
 from mgdata.record import layout

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from mgdata.engine.gate import SuccessGate
+from mgdata.engine.init_gate import base_task
 from mgdata.engine.runner import EpisodeRunner
 from mgdata.record.episode import MemorySink
 from mgdata.record.recorder import Recorder
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import HOME_Q, arm_qpos_adr
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.engine.init_gate import base_task
 from mgdata.tasks.recipe import load_recipe
 
 

@@ -92,10 +92,10 @@ def test_episode_without_keep_failed_is_dropped(gello_cal: GelloCalibration, tmp
 def _planner_demo() -> np.ndarray:
     """The commanded joints + gripper of a kept planner demonstration of jar task 0 (no rendering)."""
     from mgdata.engine.executor import Executor
+    from mgdata.engine.init_gate import base_task
     from mgdata.grasps.db import GraspDB
     from mgdata.paths import grasps_dir
     from mgdata.record.episode import MemorySink
-    from mgdata.engine.init_gate import base_task
     from mgdata.tasks.recipe import load_recipe
 
     recipe = load_recipe("jar")
