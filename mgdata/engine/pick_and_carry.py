@@ -5,9 +5,9 @@ The paper's pick: open, move to a pre-grasp pose ``grasp_standoff`` back along t
 ``lift_margin`` above the tallest other object (at least ``lift_height``), carry it (free, or ``level`` in a
 straight line; slowed to ``carry_speed``) over the goal, lower it into the goal (linear) and hold it there.
 Grasps come from the grasp DB, round-robin over the task's reachable valid grasps
-(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check). Objects riding inside the held one (food in a jar, liquid in a cup) are the
-segments' ``riders``. For families that put an object down: :meth:`PickAndCarry.place_segments` (lower,
-release, retreat).
+(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check). Objects riding inside the held
+one (food in a jar, liquid in a cup) are the segments' ``riders``. For families that put an object down:
+:meth:`PickAndCarry.place_segments` (lower, release, retreat).
 
 A skeleton declares the keys it reads as ``PICK_AND_CARRY_KEYS`` + its own::
 
