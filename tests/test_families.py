@@ -1,0 +1,258 @@
+"""One contract every family keeps, parametrised over every recipe under ``recipes/``.
+
+For each family: the recipe loads against its skeleton; base tasks pass the initial-state gate (two by
+default, all with ``-m slow``); a short ``mgdata generate`` keeps a demonstration that ``mgdata validate``
+accepts; and, from the dataset alone with nothing but ``mujoco`` and ``pyarrow`` (no mgdata code), every kept
+episode is replayed from its stored physics states and measured: the picked object's bounding-box centre is
+inside the goal sphere over the last ``hold_steps`` frames, both fingers touch it, nothing else supports it,
+it is at rest; at every frame nothing left the table for the floor, every object named by an upright
+constraint stands within its tilt limit, and a liquid stays in its container (particles counted inside the
+container's own bounding box, independently of the ``spilled`` predicate). Finally a planted violation (an
+object teleported onto the floor at step 30) is caught at exactly that step.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from mgdata.engine.executor import Executor
+from mgdata.engine.init_gate import base_task
+from mgdata.engine.skeleton import load_family_recipe
+from mgdata.grasps.db import GraspDB
+from mgdata.paths import grasps_dir, recipes_dir
+from mgdata.record.episode import MemorySink
+from mgdata.sim.controller import JointController
+from mgdata.sim.scene import Scene
+from mgdata.tasks.recipe import family_recipes
+
+MGDATA = [str(Path(sys.executable).parent / "mgdata")]
+FAMILIES = family_recipes()
+AT_REST_M_S = 0.01
+FLOOR_MARGIN_M = 0.05  # "dropped": below the floor + 5 cm (reference-implementation.md §2)
+PLANT_STEP = 30
+
+
+def _raw_recipe(family: str) -> dict:
+    return tomllib.loads((recipes_dir() / f"{family}.toml").read_text())
+
+
+def _raw_spec(family: str) -> dict:
+    raw = _raw_recipe(family)
+    return tomllib.loads((recipes_dir() / raw["spec"]).read_text())
+
+
+def _small_recipe(tmp: Path, family: str) -> Path:
+    text = (recipes_dir() / f"{family}.toml").read_text()
+    spec = _raw_recipe(family)["spec"]
+    text = text.replace(f'spec = "{spec}"', f'spec = "{recipes_dir() / spec}"')
+    text = text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]', 'cameras = ["front"]')
+    text = text.replace("image_size = 256", "image_size = 32")
+    path = tmp / f"{family}.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_every_recipe_loads_against_its_skeleton(family: str) -> None:
+    recipe = load_family_recipe(family)
+    assert recipe.family == family and recipe.tasks.count >= 1
+    assert "{" not in recipe.prompt or recipe.prompt.count("{") == recipe.prompt.count("}")
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_base_tasks_pass_the_initial_state_gate(family: str) -> None:
+    recipe = load_family_recipe(family)
+    for k in (0, recipe.tasks.count - 1):
+        _check_gated(recipe, k)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", FAMILIES)
+def test_every_base_task_passes_the_initial_state_gate(family: str) -> None:
+    recipe = load_family_recipe(family)
+    for k in range(recipe.tasks.count):
+        _check_gated(recipe, k)
+
+
+def _check_gated(recipe, k: int) -> None:  # type: ignore[no-untyped-def]
+    task = base_task(recipe, k)
+    assert task.task_id == k and 0 <= task.draw < recipe.tasks.max_draws
+    assert len(task.gate.get("grasps", ())) >= recipe.tasks.min_grasps
+    if task.goal is not None:
+        assert task.goal.radius > 0
+    assert all(not o.name.startswith("_") for o in task.objects)
+
+
+@pytest.fixture(scope="module", params=FAMILIES)
+def generated(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
+    family = request.param
+    tmp = tmp_path_factory.mktemp(family)
+    out = tmp / family
+    cmd = [*MGDATA, "generate", "--family", family, "--n", "1", "--out", str(out), "--recipe",
+           str(_small_recipe(tmp, family)), "--tasks", "0", "--workers", "1", "--max-attempts", "4"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return family, out
+
+
+def test_a_short_generate_keeps_a_demo_that_validates(generated: tuple[str, Path]) -> None:
+    _, out = generated
+    proc = subprocess.run([*MGDATA, "validate", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert json.loads((out / "meta" / "info.json").read_text())["total_episodes"] == 1
+
+
+def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path]) -> None:
+    family, root = generated
+    raw, spec = _raw_recipe(family), _raw_spec(family)
+    picked = next(p["subjects"][0] for p in raw["success"].values() if p["evaluator"] == "in_region")
+    hold = raw["tasks"]["hold_steps"]
+    upright = [(p["subjects"][0], p["params"]["max_tilt_deg"]) for p in spec["propositions"].values()
+               if p["evaluator"] == "upright"]
+    info = json.loads((root / "meta" / "info.json").read_text())
+    for episode in _episodes(root):
+        m = _model(root, episode["mgdata/scene"])
+        d = mujoco.MjData(m)
+        frames = _frames(root, info, episode)
+        assert episode["mgdata/kept"] and not any(any(v) for v in frames["safety.violated"])
+        objects = [m.body(b).name for b in range(m.nbody) if m.body_parentid[b] == 0 and m.body_jntnum[b]
+                   and "/" not in m.body(b).name]
+        liquids = sorted({m.body(b).name.split("/")[0] for b in range(m.nbody) if "/p" in m.body(b).name})
+        centres = []
+        state_spec = info["features"]["sim.physics_state"]["info"]["mujoco_state_spec"]
+        for t, state in enumerate(frames["sim.physics_state"]):
+            mujoco.mj_setState(m, d, np.asarray(state, dtype=np.float64), state_spec)
+            mujoco.mj_forward(m, d)
+            for name in objects:  # nothing reached the floor
+                assert d.xpos[m.body(name).id][2] > m.geom("floor").pos[2] + FLOOR_MARGIN_M, (t, name)
+            for pattern, limit in upright:
+                for name in fnmatch.filter(objects, pattern):
+                    z_axis = d.xmat[m.body(name).id].reshape(3, 3)[:, 2]
+                    assert np.degrees(np.arccos(np.clip(z_axis[2], -1, 1))) <= limit + 1e-6, (t, name)
+            for liquid in liquids:
+                assert _fraction_inside(m, d, liquid, picked) >= 0.85, (t, liquid)
+            if t >= len(frames["sim.physics_state"]) - hold:
+                body = m.body(picked).id
+                centres.append(_bbox_centre(m, d, body))
+                fingers = [_touching(m, d, f, body) for f in ("left_finger", "right_finger")]
+                assert all(fingers), (t, "both fingers on the object")
+                assert not _touching(m, d, "table", body), (t, "the table does not support it")
+                goal = m.geom("goal")
+                assert np.linalg.norm(centres[-1] - d.geom_xpos[goal.id]) < m.geom_size[goal.id][0], t
+        dt = 1.0 / info["fps"]
+        speeds = [np.linalg.norm(b - a) / dt for a, b in zip(centres, centres[1:], strict=False)]
+        assert max(speeds) <= AT_REST_M_S
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_a_planted_violation_is_caught_at_that_step(family: str) -> None:
+    """Teleport the object of the spec's first ``dropped`` proposition onto the floor after control step 30:
+    the attempt ends unsafe with that constraint violated at exactly frame 30."""
+    recipe = load_family_recipe(family)
+    spec = _raw_spec(family)
+    prop_name, prop = next((k, p) for k, p in spec["propositions"].items() if p["evaluator"] == "dropped")
+    constraint = next(c["id"] for c in spec["constraints"] if prop_name in c["formula"])
+    ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
+    victim = fnmatch.filter([o.name for o in ex.task.objects], prop["subjects"][0])[0]
+    ex.controller = _Planter(ex.scene, victim)
+    sink = MemorySink()
+    result = ex.run(0, sink, keep_failed=True)
+    ex.close()
+    frames, _ = sink.episodes[0]
+    assert result.stage == "unsafe" and not result.kept
+    assert result.t_violation[constraint] == PLANT_STEP == len(frames) - 1
+    index = [c["id"] for c in spec["constraints"]].index(constraint)
+    assert frames[PLANT_STEP].violated[index] and not frames[PLANT_STEP - 1].violated[index]
+
+
+class _Planter(JointController):
+    """The executor's controller; after control step ``PLANT_STEP`` it moves ``victim`` to the floor."""
+
+    def __init__(self, scene: Scene, victim: str) -> None:
+        super().__init__(scene)
+        self.victim, self.count = victim, 0
+
+    def step(self) -> None:
+        super().step()
+        self.count += 1
+        if self.count == PLANT_STEP:
+            m, d = self.scene.model, self.scene.data
+            joint = m.body(self.victim).jntadr[0]
+            d.qpos[m.jnt_qposadr[joint] + 2] = m.geom("floor").pos[2] + 0.02
+            mujoco.mj_forward(m, d)
+
+
+# --- raw reading of a dataset (pyarrow + mujoco only) -------------------------------------------------------
+def _episodes(root: Path) -> list[dict]:
+    files = sorted(root.glob("meta/episodes/*/*.parquet"))
+    return [row for path in files for row in pq.read_table(path).to_pylist()]
+
+
+def _model(root: Path, key: str) -> mujoco.MjModel:
+    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
+    row = scenes[key]
+    mjb = np.frombuffer(row["data"], np.uint8)
+    if row["base"] is not None:
+        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
+    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
+
+
+def _frames(root: Path, info: dict, episode: dict) -> dict[str, list]:
+    path = root / info["data_path"].format(chunk_index=episode["data/chunk_index"],
+                                           file_index=episode["data/file_index"])
+    columns = ["episode_index", "frame_index", "sim.physics_state", "safety.violated"]
+    table = pq.read_table(path, columns=columns).to_pydict()
+    rows = sorted((i for i, e in enumerate(table["episode_index"]) if e == episode["episode_index"]),
+                  key=lambda i: table["frame_index"][i])
+    return {k: [v[i] for i in rows] for k, v in table.items()}
+
+
+def _subtree_geoms(m: mujoco.MjModel, root: int) -> np.ndarray:
+    bodies = [b for b in range(m.nbody) if b == root or m.body_parentid[b] == root]
+    return np.flatnonzero(np.isin(m.geom_bodyid, bodies))
+
+
+def _local_box(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
+    """The body's geoms' bounding box, in the body's own frame (min, max)."""
+    rot, corners = d.xmat[body].reshape(3, 3), []
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    for g in _subtree_geoms(m, body):
+        if not (m.geom_contype[g] or m.geom_conaffinity[g]):
+            continue
+        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        world = d.geom_xpos[g] + (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T
+        corners.append((world - d.xpos[body]) @ rot)
+    local = np.concatenate(corners)
+    return local.min(0), local.max(0)
+
+
+def _bbox_centre(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> np.ndarray:
+    lo, hi = _local_box(m, d, body)
+    return d.xpos[body] + d.xmat[body].reshape(3, 3) @ ((lo + hi) / 2.0)
+
+
+def _touching(m: mujoco.MjModel, d: mujoco.MjData, body_name: str, body: int) -> bool:
+    mine = set(_subtree_geoms(m, body).tolist())
+    other = set(np.flatnonzero(m.geom_bodyid == m.body(body_name).id).tolist())
+    return any((c.geom1 in mine and c.geom2 in other) or (c.geom2 in mine and c.geom1 in other)
+               for c in d.contact[:d.ncon] if c.dist <= 0.0005)
+
+
+def _fraction_inside(m: mujoco.MjModel, d: mujoco.MjData, liquid: str, container: str) -> float:
+    """Particles inside the container's bounding box (its frame; 1 cm of headroom above the rim)."""
+    body = m.body(container).id
+    lo, hi = _local_box(m, d, body)
+    pts = np.array([d.xpos[b] for b in range(m.nbody) if m.body(b).name.startswith(f"{liquid}/p")])
+    local = (pts - d.xpos[body]) @ d.xmat[body].reshape(3, 3)
+    inside = np.all((local >= lo) & (local <= hi + np.array([0.0, 0.0, 0.01])), axis=1)
+    return float(inside.mean())
