@@ -105,7 +105,7 @@ class _SweepThroughObstacle(ClutterSkeleton):
     def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
         everything = tuple(("base", o.name) for o in ctx.task.objects)
         return [s.free("sweep_start", "sweep_start", allow=everything),
-                s.linear("sweep", "sweep_end", allow=everything + (("base", "table"),))]
+                s.linear("sweep", "sweep_end", allow=(*everything, ("base", "table")))]
 
     def resolve(self, name: str, ctx: Context) -> Pose:
         scene = ctx.scene

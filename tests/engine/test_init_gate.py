@@ -15,7 +15,6 @@ import pytest
 from mgdata.engine.init_gate import Infeasible, _grasp_db, base_task, check_initial_state
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
-from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 from mgdata.sim.scene import build_scene
 from mgdata.sim.world import FLOOR_Z
