@@ -1,0 +1,178 @@
+"""Guarded segments on a real scene (a carton on the table), checked against raw MuJoCo contacts.
+
+Every control step the test reads ``data.contact`` itself (hand and finger bodies vs the carton's or the
+table's geoms, found from the model's body names) and sums ``mj_contactForce`` normals; nothing here uses
+the helpers of the code under test.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+import pytest
+
+from mgdata.engine import segment as s
+from mgdata.engine.executor import AttemptResult, Executor
+from mgdata.grasps.db import GraspDB
+from mgdata.motion import Pose
+from mgdata.record.episode import MemorySink
+from mgdata.sim.assets import get_model
+from mgdata.tasks.taskspec import ObjectPlacement
+from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
+from tests.engine.test_segments import DOWN, NEVER
+
+BOX = (ObjectPlacement("box", "box/carton_00", (0.5, 0.0, 0.0), 0.0),)
+TOP = get_model("box/carton_00").size[2]
+ABOVE_BOX = Pose([0.5, 0.0, TOP + 0.03], DOWN)
+FREE_SPOT = Pose([0.45, 0.25, 0.06], DOWN)  # over bare table, TCP 6 cm up (fingertips ≈ 5 cm up)
+FORCE_TOL = 0.10
+"""The measured pair force may exceed ``max_force`` by at most this fraction (control-step samples)."""
+
+
+@dataclass
+class Log:
+    """Raw readings after every control step: TCP height (m), hand–body contact, its normal force (N) and the
+    actuator controls."""
+
+    z: list[float] = field(default_factory=list)
+    touching: list[bool] = field(default_factory=list)
+    force: list[float] = field(default_factory=list)
+    command: list[np.ndarray] = field(default_factory=list)
+
+    def first_contact(self) -> int:
+        return self.touching.index(True)
+
+
+def _run(script: list[s.MotionSegment], body: str) -> tuple[Executor, AttemptResult, Log, MemorySink]:
+    """Run ``script`` on the carton scene, logging the raw contacts between the hand and ``body``."""
+    ScriptedSkeleton.SCRIPT = script
+    ex = Executor(scripted_task(BOX), scripted_recipe(NEVER, horizon=1200), grasps=GraspDB({}), render=False)
+    m, d = ex.scene.model, ex.scene.data
+    hand = {m.body(n).id for n in ("hand", "left_finger", "right_finger")}
+    target = np.array([m.body(int(b)).name.split("/")[0] == body for b in m.geom_bodyid])
+    tcp = m.site("TCP").id
+    log = Log()
+    step = ex.controller.step
+
+    def logged_step() -> None:
+        step()
+        total, touching, f6 = 0.0, False, np.zeros(6)
+        for i in range(d.ncon):
+            g1, g2 = d.contact.geom[i]
+            if (m.geom_bodyid[g1] in hand and target[g2]) or (m.geom_bodyid[g2] in hand and target[g1]):
+                mujoco.mj_contactForce(m, d, i, f6)
+                total, touching = total + f6[0], True
+        log.z.append(float(d.site_xpos[tcp][2]))
+        log.touching.append(touching)
+        log.force.append(total)
+        log.command.append(d.ctrl.copy())
+
+    ex.controller.step = logged_step  # type: ignore[method-assign]
+    sink = MemorySink()
+    result = ex.run(0, sink, keep_failed=True)
+    return ex, result, log, sink
+
+
+@pytest.mark.parametrize(("body", "above"), [("box", ABOVE_BOX), ("table", FREE_SPOT)])
+def test_touch_stops_at_first_contact_and_rests_without_pushing(body: str, above: Pose) -> None:
+    down = s.guarded("down", (0.0, 0.0, -1.0), until=s.touch(body), max_distance=0.08, max_force=20.0,
+                     gripper="close")
+    script = [s.free("above", above), s.gripper("close", "close", steps=10), down,
+              s.hold("rest", steps=20, gripper="close"), s.reverse("up", of="down", gripper="close")]
+    ex, result, log, _ = _run(script, body)
+    try:
+        assert result.stage == "goal_not_reached", result.reason  # every segment ran
+        first = log.first_contact()
+        in_contact = np.array(log.z[first: first + 21])
+        # the TCP moved less than 2 mm further after the first contact (it was approaching at ~4 mm/s)
+        assert log.z[first] - in_contact.min() < 0.002
+        assert max(log.force) <= 20.0 * (1 + FORCE_TOL)
+        # resting on the surface, the arm does not keep pushing: the force decays below a few newtons
+        assert np.mean(log.force[first + 5: first + 20]) < 3.0
+        # the reverse lifts it back to where the guarded move began (the free segment's end)
+        assert abs(log.z[-1] - above.pos[2]) < 0.01 and not log.touching[-1]
+    finally:
+        ex.close()
+
+
+@pytest.mark.parametrize(("threshold", "bound"), [(8.0, 12.0), (25.0, 40.0)])
+def test_force_reaches_the_threshold_and_never_exceeds_the_bound(threshold: float, bound: float) -> None:
+    press = s.guarded("press", (0.0, 0.0, -1.0), until=s.force("box", threshold), max_distance=0.08,
+                      max_force=bound, gripper="close")
+    script = [s.free("above", ABOVE_BOX), s.gripper("close", "close", steps=10), press,
+              s.hold("rest", steps=20, gripper="close")]
+    ex, result, log, _ = _run(script, "box")
+    try:
+        assert result.stage == "goal_not_reached", result.reason
+        force = np.array(log.force)
+        reached = int(np.argmax(force >= threshold))
+        assert force[reached] >= threshold  # the threshold was reached ...
+        assert force.max() <= bound * (1 + FORCE_TOL)  # ... and the bound held over the whole attempt
+        # after the stop the arm rests where it is: the force falls instead of climbing on
+        assert force[reached + 2] < threshold and force[reached + 2:].max() < threshold
+    finally:
+        ex.close()
+
+
+def test_a_move_that_meets_nothing_fails_at_the_distance_limit() -> None:
+    down = s.guarded("down", (0.0, 0.0, -1.0), until=s.touch("box"), max_distance=0.03, max_force=20.0)
+    settle = 20
+    script = [s.free("beside", FREE_SPOT), s.hold("settle", steps=settle), down, s.hold("rest", steps=5)]
+    ex, result, log, _ = _run(script, "box")
+    try:
+        assert result.stage == "guarded_no_contact" and result.segment == "down" and not result.kept
+        assert "30.0 mm" in (result.reason or "")
+        assert not any(log.touching)
+        # the guarded move starts after the settle hold: the first run of `settle` identical commands
+        start = _after_still_run(log.command, settle)
+        assert start is not None
+        travel = log.z[start - 1] - log.z[-1]
+        assert travel == pytest.approx(0.03, abs=0.002), f"the TCP travelled {travel * 1000:.1f} mm"
+    finally:
+        ex.close()
+    continuing = s.guarded("down", (0.0, 0.0, -1.0), until=s.touch("box"), max_distance=0.03,
+                           max_force=20.0, on_miss="continue")
+    ex, result, log, _ = _run([s.free("beside", FREE_SPOT), continuing, s.hold("rest", steps=5)], "box")
+    try:
+        assert result.stage == "goal_not_reached"  # the miss was allowed: the later segments ran
+    finally:
+        ex.close()
+
+
+def _after_still_run(commands: list[np.ndarray], n: int) -> int | None:
+    """Index of the step after the first run of ``n`` identical commands."""
+    run = 1
+    for i in range(1, len(commands)):
+        run = run + 1 if np.array_equal(commands[i], commands[i - 1]) else 1
+        if run == n:
+            return i + 1
+    return None
+
+
+def test_same_draw_gives_the_same_joint_trajectory() -> None:
+    ScriptedSkeleton.TARGETS = {"below": lambda ctx: Pose(ctx.tcp_pose().pos - [0.0, 0.0, 0.06], DOWN)}
+    press = s.guarded("press", "below", until=s.force("box", 6.0), max_force=15.0, gripper="close")
+    script = [s.free("above", ABOVE_BOX), s.gripper("close", "close", steps=5), press]
+    runs = []
+    for _ in range(2):
+        ex, result, _, sink = _run(script, "box")
+        ex.close()
+        frames = sink.episodes[0][0]
+        runs.append((np.array([f.state for f in frames]), np.array([f.action for f in frames]), result.steps))
+    assert runs[0][2] == runs[1][2]
+    assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"until": s.force("box", 20.0), "max_force": 20.0, "max_distance": 0.1}, "below max_force"),
+    ({"until": s.touch("box"), "max_force": 20.0}, "needs max_distance"),
+    ({"until": s.touch("box"), "max_force": 0.0, "max_distance": 0.1}, "max_force must be > 0"),
+    ({"until": s.touch("box"), "max_force": 5.0, "max_distance": -0.1}, "max_distance must be > 0"),
+])
+def test_bad_guarded_options_are_rejected(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        s.guarded("g", (0.0, 0.0, -1.0), **kwargs)
+    with pytest.raises(ValueError, match="not all 0"):
+        s.guarded("g", (0.0, 0.0, 0.0), until=s.touch("box"), max_force=5.0, max_distance=0.1)
