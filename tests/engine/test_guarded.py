@@ -45,13 +45,20 @@ class Log:
         return self.touching.index(True)
 
 
-def _run(script: list[s.MotionSegment], body: str) -> tuple[Executor, AttemptResult, Log, MemorySink]:
-    """Run ``script`` on the carton scene, logging the raw contacts between the hand and ``body``."""
+def _geoms(m: mujoco.MjModel, name: str) -> np.ndarray:
+    """Mask over geoms: the hand and finger bodies for ``"hand"``, else the bodies named ``name`` or
+    ``name/...`` (an object instance's bodies, or the table)."""
+    names = ("hand", "left_finger", "right_finger") if name == "hand" else (name,)
+    return np.array([m.body(int(b)).name.split("/")[0] in names for b in m.geom_bodyid])
+
+
+def _run(script: list[s.MotionSegment], body: str,
+         mover: str = "hand") -> tuple[Executor, AttemptResult, Log, MemorySink]:
+    """Run ``script`` on the carton scene, logging the raw contacts between ``mover`` and ``body``."""
     ScriptedSkeleton.SCRIPT = script
     ex = Executor(scripted_task(BOX), scripted_recipe(NEVER, horizon=1200), grasps=GraspDB({}), render=False)
     m, d = ex.scene.model, ex.scene.data
-    hand = {m.body(n).id for n in ("hand", "left_finger", "right_finger")}
-    target = np.array([m.body(int(b)).name.split("/")[0] == body for b in m.geom_bodyid])
+    hand, target = _geoms(m, mover), _geoms(m, body)
     tcp = m.site("TCP").id
     log = Log()
     step = ex.controller.step
@@ -61,7 +68,7 @@ def _run(script: list[s.MotionSegment], body: str) -> tuple[Executor, AttemptRes
         total, touching, f6 = 0.0, False, np.zeros(6)
         for i in range(d.ncon):
             g1, g2 = d.contact.geom[i]
-            if (m.geom_bodyid[g1] in hand and target[g2]) or (m.geom_bodyid[g2] in hand and target[g1]):
+            if (hand[g1] and target[g2]) or (hand[g2] and target[g1]):
                 mujoco.mj_contactForce(m, d, i, f6)
                 total, touching = total + f6[0], True
         log.z.append(float(d.site_xpos[tcp][2]))
@@ -151,8 +158,9 @@ def _after_still_run(commands: list[np.ndarray], n: int) -> int | None:
     return None
 
 
-def test_same_draw_gives_the_same_joint_trajectory() -> None:
-    ScriptedSkeleton.TARGETS = {"below": lambda ctx: Pose(ctx.tcp_pose().pos - [0.0, 0.0, 0.06], DOWN)}
+def test_same_draw_gives_the_same_joint_trajectory(monkeypatch: pytest.MonkeyPatch) -> None:
+    below = {"below": lambda ctx: Pose(ctx.tcp_pose().pos - [0.0, 0.0, 0.06], DOWN)}
+    monkeypatch.setattr(ScriptedSkeleton, "TARGETS", below)
     press = s.guarded("press", "below", until=s.force("box", 6.0), max_force=15.0, gripper="close")
     script = [s.free("above", ABOVE_BOX), s.gripper("close", "close", steps=5), press]
     runs = []
@@ -176,3 +184,39 @@ def test_bad_guarded_options_are_rejected(kwargs: dict, message: str) -> None:
         s.guarded("g", (0.0, 0.0, -1.0), **kwargs)
     with pytest.raises(ValueError, match="not all 0"):
         s.guarded("g", (0.0, 0.0, 0.0), until=s.touch("box"), max_force=5.0, max_distance=0.1)
+
+
+def test_blocked_by_another_body_the_move_stalls_without_pushing_harder_than_the_bound() -> None:
+    # heading for the table through the carton: the hand lands on the carton and cannot advance
+    down = s.guarded("down", (0.0, 0.0, -1.0), until=s.touch("table"), max_distance=0.08, max_force=15.0,
+                     gripper="close", allow=(("hand", "box"),))
+    script = [s.free("above", ABOVE_BOX), s.gripper("close", "close", steps=10), down]
+    ex, result, log, _ = _run(script, "box")
+    try:
+        assert result.stage == "guarded_stalled" and result.segment == "down", result.reason
+        assert any(log.touching) and max(log.force) <= 15.0 * (1 + FORCE_TOL)
+    finally:
+        ex.close()
+
+
+def test_a_held_carton_is_seated_on_the_table_with_the_force_asked_for() -> None:
+    hold_at, lift = TOP - 0.03, 0.02
+    carry = (("hand", "box"), ("box", "table"))
+    seat = s.guarded("seat", (0.0, 0.0, -1.0), until=s.force("table", 5.0), max_distance=0.05, max_force=15.0,
+                     gripper="close", attached="box", allow=(("hand", "box"),))
+    script = [s.free("above", Pose([0.5, 0.0, TOP + 0.05], DOWN)),
+              s.linear("down", Pose([0.5, 0.0, hold_at], DOWN), allow=(("hand", "box"),)),
+              s.gripper("close", "close", steps=15),
+              s.linear("lift", Pose([0.5, 0.0, hold_at + lift], DOWN), gripper="close", attached="box",
+                       allow=carry),
+              s.hold("carry", steps=10, gripper="close"), seat]
+    ex, result, log, _ = _run(script, "table", mover="box")
+    try:
+        assert result.stage == "goal_not_reached", result.reason
+        force = np.array(log.force)
+        lifted = int(np.argmax(~np.array(log.touching)))  # the first step with the carton off the table
+        assert not any(log.touching[lifted: lifted + 10])
+        seated = lifted + int(np.argmax(force[lifted:] >= 5.0))
+        assert force[seated] >= 5.0 and force[lifted:].max() <= 15.0 * (1 + FORCE_TOL)
+    finally:
+        ex.close()
