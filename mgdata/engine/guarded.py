@@ -10,7 +10,9 @@ set* (the hand and fingers, plus the held object if ``attached``) and the ``unti
 
 How the command relates to the arm: the position servos do not compensate gravity, so the command is the
 *rest command* of a point on the line (:class:`mgdata.sim.servo.ArmServo`: the command under which the arm
-rests exactly there, pushing on nothing), and the point is advanced along the line. The force on anything
+rests exactly there, pushing on nothing), and the point is advanced along the line. The line starts where
+the previous command brings the arm to rest, so the command continues without a jump even if the arm is
+still catching up with it. The force on anything
 the arm meets along the line is then at most ``k · lead``, the servos' pinned stiffness ``k`` along the
 line times how far the commanded point leads the measured TCP, so
 
@@ -171,8 +173,8 @@ class GuardedMove:
         self.seg, self.ctx, self.guard = seg, ctx, seg.guard
         scene, planner = ctx.scene, ctx.planner
         self.servo = ArmServo(scene.model)
-        q = scene.arm_q()
-        start = planner.fk(q)
+        q = self.servo.rest_pose(ctx.q_cmd)  # the line starts where the last command brings the arm to rest,
+        start = planner.fk(q)                # so the first rest command along it is that command: no jump
         self.origin = start.pos
         if self.guard.direction is not None:
             direction = np.array(self.guard.direction)

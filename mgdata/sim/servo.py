@@ -5,7 +5,7 @@ an arm commanded to ``q`` rests a few millimetres below it (≈ 5 mm at the TCP 
 with no contact, ``kp (ctrl - q) = g(q)`` (the gravity torques), so
 
 * :meth:`ArmServo.rest_command` ``(q) = q + g(q) / kp`` is the command under which the arm rests at ``q``
-  pushing on nothing;
+  pushing on nothing (:meth:`ArmServo.rest_pose` inverts it);
 * a command that leads that one by ``δ`` metres of TCP travel along a unit direction ``d`` pushes with
   at most ``k_d δ`` newtons along ``d`` once blocked, where ``k_d`` = :meth:`ArmServo.stiffness` ``(q, d)``
   (N/m) is the servos' stiffness with the hand pinned (K = diag(kp) seen through the TCP's 6×7 Jacobian).
@@ -61,6 +61,15 @@ class ArmServo:
     def rest_command(self, q: np.ndarray) -> np.ndarray:
         """The joint command (7,) under which the arm rests at ``q`` with no contact force."""
         return np.asarray(q, dtype=np.float64) + self.gravity(q) / self.kp
+
+    def rest_pose(self, command: np.ndarray, iterations: int = 8) -> np.ndarray:
+        """Where the arm comes to rest (7,) under the joint ``command`` with no contact: the inverse of
+        :meth:`rest_command`, by fixed-point iteration (``g / kp`` changes little with ``q``)."""
+        c = np.asarray(command, dtype=np.float64)
+        q = c.copy()
+        for _ in range(iterations):
+            q = c - self.gravity(q) / self.kp
+        return q
 
     def stiffness(self, q: np.ndarray, direction: np.ndarray) -> float:
         """The servos' stiffness (N/m) at the TCP along the unit vector ``direction`` at ``q`` with the hand

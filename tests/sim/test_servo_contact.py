@@ -31,6 +31,13 @@ def test_rest_command_holds_the_arm_where_asked_and_the_plain_command_sags(box_s
             ctl.step()
         error = np.abs(scene.data.qpos[robot.arm_qpos_adr(scene.model)] - q).max()
         assert (error > 2e-3) if expect_sag else (error < 2e-4), error
+    # and rest_pose inverts rest_command: where a plain command q lets the arm sag to
+    assert np.allclose(servo.rest_pose(servo.rest_command(q)), q, atol=1e-9)
+    scene.reset()
+    for _ in range(60):
+        ctl.apply(np.r_[q, 0.0])
+        ctl.step()
+    assert np.abs(scene.data.qpos[robot.arm_qpos_adr(scene.model)] - servo.rest_pose(q)).max() < 2e-4
 
 
 def test_pair_contact_is_the_weight_of_a_box_resting_on_the_table(box_scene: Scene) -> None:
