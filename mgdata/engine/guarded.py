@@ -176,9 +176,9 @@ class GuardedMove:
         q = self.servo.rest_pose(ctx.q_cmd)  # the line starts where the last command brings the arm to rest,
         start = planner.fk(q)                # so the first rest command along it is that command: no jump
         self.origin = start.pos
-        if self.guard.direction is not None:
+        if self.guard.direction is not None and self.guard.max_distance is not None:
             direction = np.array(self.guard.direction)
-            limit = float(self.guard.max_distance)  # type: ignore[arg-type]
+            limit = self.guard.max_distance
         else:
             assert target is not None
             offset = target.pos - start.pos

@@ -35,11 +35,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from mgdata.engine.guarded import Guard, Until, force, touch
+from mgdata.engine.guarded import Guard, Until
+from mgdata.engine.guarded import force as force  # re-exported: skeletons write s.force(...), s.touch(...)
+from mgdata.engine.guarded import touch as touch
 from mgdata.motion.types import NO_CONTACTS, AllowedContacts, Pose
-
-__all__ = ["KINDS", "MotionSegment", "force", "free", "gripper", "guarded", "hold", "linear", "reverse",
-           "touch"]
 
 SegmentKind = Literal["free", "linear", "gripper", "reverse", "hold", "guarded"]
 GripperCommand = Literal["open", "close"]
@@ -146,8 +145,12 @@ def guarded(name: str, toward: tuple[float, float, float] | Pose | str, *, until
     """Contact-aware straight TCP line: along the world ``direction`` ``toward`` (3 numbers, any length)
     for at most ``max_distance`` metres, or towards a target (a pose or a runtime-target name; the limit
     defaults to the distance to it), until ``until`` holds, pushing with at most ``max_force`` newtons."""
-    aimed = isinstance(toward, (Pose, str))
-    direction = None if aimed else tuple(float(x) for x in toward)  # type: ignore[union-attr]
-    guard = Guard(until, direction, max_distance, max_force, on_miss)  # type: ignore[arg-type]
-    return MotionSegment(name, "guarded", toward if aimed else None, gripper,  # type: ignore[arg-type]
-                         _allow(allow), attached, speed=speed, guard=guard)
+    if isinstance(toward, (Pose, str)):
+        guard = Guard(until, None, max_distance, max_force, on_miss)
+        return MotionSegment(name, "guarded", toward, gripper, _allow(allow), attached, speed=speed,
+                             guard=guard)
+    direction = tuple(float(v) for v in toward)
+    if len(direction) != 3:
+        raise ValueError(f"segment {name!r}: a guarded direction is 3 numbers (x, y, z), got {toward!r}")
+    guard = Guard(until, (direction[0], direction[1], direction[2]), max_distance, max_force, on_miss)
+    return MotionSegment(name, "guarded", None, gripper, _allow(allow), attached, speed=speed, guard=guard)

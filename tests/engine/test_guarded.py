@@ -187,6 +187,8 @@ def test_same_draw_gives_the_same_joint_trajectory(monkeypatch: pytest.MonkeyPat
 def test_bad_guarded_options_are_rejected(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         s.guarded("g", (0.0, 0.0, -1.0), **kwargs)
+    with pytest.raises(ValueError, match="3 numbers"):
+        s.guarded("g", (0.0, -1.0), until=s.touch("box"), max_force=5.0, max_distance=0.1)
     with pytest.raises(ValueError, match="not all 0"):
         s.guarded("g", (0.0, 0.0, 0.0), until=s.touch("box"), max_force=5.0, max_distance=0.1)
 
