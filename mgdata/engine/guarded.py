@@ -212,7 +212,8 @@ class GuardedMove:
         vmax = self.seg.speed * lc.speed
         goal = 0.5 * (until.newtons + fmax)
         commands = [ctx.q_cmd.copy()]
-        s_cmd = vel = peak = best = 0.0
+        s_cmd = vel = peak = 0.0
+        best = -np.inf  # the farthest measured progress so far (the arm may start behind the line's start)
         idle = at_limit = 0
         stage: str | None = None
         while True:

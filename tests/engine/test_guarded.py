@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from mgdata.engine import segment as s
+from mgdata.engine.context import Context
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
@@ -163,19 +164,30 @@ def _after_still_run(commands: list[np.ndarray], n: int) -> int | None:
     return None
 
 
-def test_same_draw_gives_the_same_joint_trajectory(monkeypatch: pytest.MonkeyPatch) -> None:
-    below = {"below": lambda ctx: Pose(ctx.tcp_pose().pos - [0.0, 0.0, 0.06], DOWN)}
-    monkeypatch.setattr(ScriptedSkeleton, "TARGETS", below)
+def test_same_draw_gives_the_same_joint_trajectory_and_the_outcome_is_left_for_the_skeleton(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    contexts = []
+
+    def below(ctx: Context) -> Pose:  # a runtime target, 6 cm under the TCP (inside the carton)
+        contexts.append(ctx)
+        return Pose(ctx.tcp_pose().pos - [0.0, 0.0, 0.06], DOWN)
+
+    monkeypatch.setattr(ScriptedSkeleton, "TARGETS", {"below": below})
     press = s.guarded("press", "below", until=s.force("box", 6.0), max_force=15.0, gripper="close")
     script = [s.free("above", ABOVE_BOX), s.gripper("close", "close", steps=5), press]
     runs = []
     for _ in range(2):
-        ex, result, _, sink = _run(script, "box")
+        ex, result, log, sink = _run(script, "box")
         ex.close()
         frames = sink.episodes[0][0]
         runs.append((np.array([f.state for f in frames]), np.array([f.action for f in frames]), result.steps))
     assert runs[0][2] == runs[1][2]
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+    outcome = contexts[-1].memo["guarded/press"]
+    assert outcome.met and outcome.stage is None
+    stop = int(np.argmax(np.array(log.force) >= 6.0))  # the step the condition held, read raw
+    assert outcome.force == pytest.approx(log.force[stop], rel=1e-9) and outcome.force >= 6.0
+    assert outcome.peak_force == pytest.approx(max(log.force[: stop + 1]), rel=1e-9)
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [
