@@ -55,3 +55,12 @@ def test_pair_contact_is_the_weight_of_a_box_resting_on_the_table(box_scene: Sce
     assert names == {"hand", "left_finger", "right_finger"}
     with pytest.raises(SceneError, match="no object, body or fixed part named 'lid'"):
         geom_set(scene, "lid")
+
+
+def test_a_body_name_selects_that_body_and_an_instance_all_its_bodies(jar_scene: Scene) -> None:
+    m = jar_scene.model
+    lid, jar = geom_set(jar_scene, "jar/lid"), geom_set(jar_scene, "jar")
+    colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    body = np.array([m.body(int(b)).name for b in m.geom_bodyid])
+    assert lid.any() and np.array_equal(lid, colliding & (body == "jar/lid"))
+    assert np.array_equal(jar, colliding & np.isin(body, ["jar", "jar/lid"]))
