@@ -30,6 +30,7 @@ import numpy as np
 
 from mgdata.engine.context import Context
 from mgdata.engine.gate import AttemptFailed, SuccessGate
+from mgdata.engine.guarded import GuardedMove
 from mgdata.engine.runner import EpisodeRunner
 from mgdata.engine.segment import MotionSegment
 from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
@@ -251,6 +252,10 @@ class Executor:
                 self._step(ctx.q_cmd, grip, state)
             ctx.executed[seg.name] = JointTrajectory(ctx.q_cmd[None], 20.0, 0.0)
             return
+        if seg.kind == "guarded":
+            move = self._guarded(seg, ctx, state.runner.timings)
+            ctx.executed[seg.name] = move.run(lambda q: self._step(q, grip, state))
+            return
         with state.runner.timings.measure("planning"):
             traj = slowed(self._plan(seg, ctx), seg.speed)
         for q in traj.q[1:]:
@@ -278,6 +283,13 @@ class Executor:
                                   attached=attached)
         q_goal = planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=attached)
         return planner.free(ctx.q_cmd, q_goal, rng, allowed=allowed, attached=attached)
+
+    def _guarded(self, seg: MotionSegment, ctx: Context, timings: Timings) -> GuardedMove:
+        """Plan a guarded segment (its line from the live state); :mod:`mgdata.engine.guarded` runs it."""
+        target = self._target(seg, ctx) if seg.target is not None else None
+        attached = self._attachment(seg.attached, ()) if seg.attached else None
+        with timings.measure("planning"):
+            return GuardedMove(seg, ctx, target, attached)
 
     def _target(self, seg: MotionSegment, ctx: Context) -> Pose:
         if isinstance(seg.target, Pose):

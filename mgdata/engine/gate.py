@@ -32,6 +32,8 @@ STAGES: dict[str, str] = {
     "collision_recheck": "the retimed trajectory collides on a dense re-check",
     "path_discontinuity": "a Cartesian segment needed a joint-space jump",
     "target_fail": "a runtime target could not be resolved from the live state",
+    "guarded_no_contact": "a guarded move reached its distance limit without its contact condition",
+    "guarded_stalled": "a guarded move stopped advancing before its contact condition held",
     "unsafe": "the safety monitor reported a violation",
     "sim_diverged": "the physics diverged (NaN or runaway accelerations)",
     "timeout": "the attempt ran past the family's step horizon",

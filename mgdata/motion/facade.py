@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from mgdata.errors import RobotModelError
-from mgdata.motion.cartesian import chain_ik, line_deviation, line_poses
+from mgdata.motion.cartesian import LinePath, chain_ik, line_deviation, line_poses
 from mgdata.motion.collision import CollisionChecker
 from mgdata.motion.config import MotionConfig
 from mgdata.motion.ik import IKSolver
@@ -165,6 +165,34 @@ class MotionPlanner:
         collides), ``retime_fail`` or ``collision_recheck``.
         """
         q_start = _q7(q_start, "q_start")
+        c, lc = self.config, self.config.linear
+        start = self.fk(q_start)
+        line = self.line(q_start, target, rng, orientation, allowed, attached)
+        waypoints = np.column_stack([line.q, line.dist, line.angle])
+        vmax = np.concatenate([self.vmax, [lc.speed, lc.angular_speed]])
+        amax = np.concatenate([self.amax, [lc.accel, lc.angular_accel]])
+        traj = retime(waypoints, vmax, amax, c.retime.rate, c.retime.gridpoints_per_waypoint)
+        tcp = np.array([self._ik.fk(q).pos for q in traj.q])
+        deviation = line_deviation(tcp, start.pos, target.pos)
+        if deviation > lc.max_line_error:
+            raise MotionFailure("retime_fail", f"retimed line leaves the straight line by "
+                                f"{deviation * 1000:.1f} mm (limit {lc.max_line_error * 1000:.1f} mm)")
+        self._recheck(traj)
+        return traj
+
+    def line(
+        self,
+        q_start: np.ndarray,
+        target: Pose,
+        rng: np.random.Generator,
+        orientation: str = "hold",
+        allowed: AllowedContacts = NO_CONTACTS,
+        attached: Attachment | None = None,
+    ) -> LinePath:
+        """The straight TCP line of :meth:`linear` solved into joints and checked, not yet retimed: waypoints
+        every ``[linear] step`` metres with the TCP's distance along the line. Raises ``ik_fail``,
+        ``path_discontinuity`` or ``plan_fail`` (the line collides)."""
+        q_start = _q7(q_start, "q_start")
         c, lc, chk = self.config, self.config.linear, self.checker
         start = self.fk(q_start)
         poses = line_poses(start, target, orientation, lc.step, lc.rot_step)
@@ -179,17 +207,7 @@ class MotionPlanner:
             index, q = bad
             raise MotionFailure("plan_fail", f"line collides near waypoint {index + 1}/{len(poses)} "
                                 f"({line.dist[index]:.3f} m along): {chk.explain(q)}")
-        waypoints = np.column_stack([line.q, line.dist, line.angle])
-        vmax = np.concatenate([self.vmax, [lc.speed, lc.angular_speed]])
-        amax = np.concatenate([self.amax, [lc.accel, lc.angular_accel]])
-        traj = retime(waypoints, vmax, amax, c.retime.rate, c.retime.gridpoints_per_waypoint)
-        tcp = np.array([self._ik.fk(q).pos for q in traj.q])
-        deviation = line_deviation(tcp, start.pos, target.pos)
-        if deviation > lc.max_line_error:
-            raise MotionFailure("retime_fail", f"retimed line leaves the straight line by "
-                                f"{deviation * 1000:.1f} mm (limit {lc.max_line_error * 1000:.1f} mm)")
-        self._recheck(traj)
-        return traj
+        return line
 
     def reverse(self, traj: JointTrajectory) -> JointTrajectory:
         """Replay ``traj`` backwards: same samples and timing, from its end to its start."""
