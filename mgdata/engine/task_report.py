@@ -25,7 +25,7 @@ from mgdata.errors import OutputError, RecipeError
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
 
-SHEET_CAMERAS = ("front", "shoulder")
+SHEET_CAMERAS = ("left", "right")
 SHEET_SIZE = 224
 
 
