@@ -1,9 +1,9 @@
 """How much liquid the kept demonstrations of a dataset spilled, measured independently of ``spilled``.
 
 Reads the dataset with ``pyarrow`` and ``mujoco`` only: for every frame of every episode it restores the
-stored physics state and counts the liquid's particles (bodies ``<liquid>/p…``) inside the container's own bounding
-box (its collision geoms, in its frame, 1 cm of headroom above the rim). Prints, per episode, the largest
-fraction outside over all frames, and the worst over the dataset (the spec's limit: 15 %).
+stored physics state and counts the liquid's particles (bodies ``<liquid>/p…``) inside the container's own
+bounding box (its collision geoms, in its frame, 1 cm of headroom above the rim). Prints, per episode, the
+largest fraction outside over all frames, and the worst over the dataset (the spec's limit: 15 %).
 
 Run: ``.venv/bin/python benchmarks/audit_spill.py DATASET [--container container] [--liquid liquid]``
 """
