@@ -119,8 +119,8 @@ class PickAndCarry:
         ]
 
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
-        """Lower the held object to the runtime target ``target`` (a TCP pose), release it and back off
-        along the approach axis by the pre-grasp standoff."""
+        """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
+        above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
         return [
             s.linear("place", target, gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
