@@ -47,9 +47,20 @@ class RetargetConfig:
 
 
 @dataclass(frozen=True)
+class ViewConfig:
+    image_every: int = 4
+    scene_every: int = 1
+
+    def __post_init__(self) -> None:
+        if self.image_every < 1 or self.scene_every < 1:
+            raise RecipeError("[view] image_every and scene_every must be >= 1 (control steps)")
+
+
+@dataclass(frozen=True)
 class TeleopConfig:
     leader: LeaderConfig = field(default_factory=LeaderConfig)
     retarget: RetargetConfig = field(default_factory=RetargetConfig)
+    view: ViewConfig = field(default_factory=ViewConfig)
 
 
 def load_teleop_config(path: Path | None = None) -> TeleopConfig:
