@@ -70,7 +70,8 @@ def test_death_after_the_commit_point_keeps_episode_and_stream(tmp_path: Path,
     assert validate_dataset(root).ok
 
 
-def test_death_before_the_commit_point_leaves_neither(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_death_before_the_commit_point_leaves_neither(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     root = tmp_path / "ds"
     _append_and_die(root, tmp_path, monkeypatch, after_commit_point=False)
     with DatasetWriter.open(root) as writer:  # drops the uncommitted files
@@ -82,7 +83,7 @@ def test_death_before_the_commit_point_leaves_neither(tmp_path: Path, monkeypatc
 def test_an_extra_file_never_overwrites_a_dataset_file(tmp_path: Path) -> None:
     with DatasetWriter.create(tmp_path / "ds", SCHEMA, spec=SYNTHETIC_SPEC) as writer:
         staged = _stage(writer, tmp_path)
-        with pytest.raises(DatasetError, match="meta/info.json already exists"):
+        with pytest.raises(DatasetError, match=r"meta/info\.json already exists"):
             writer.append_staged(staged, extra=lambda ep: {"meta/info.json": b"{}"})
         assert writer.num_episodes == 0
     assert validate_dataset(tmp_path / "ds").ok
