@@ -75,6 +75,22 @@ def sync_read_rate(family: str, seconds: float = 2.0) -> float:
     return rate
 
 
+def thread_cpu() -> dict[str, float]:
+    """CPU seconds so far per thread of this process, by name (Python's thread name, else the OS's)."""
+    names = {t.native_id: t.name for t in threading.enumerate()}
+    tick = os.sysconf("SC_CLK_TCK")
+    out: dict[str, float] = {}
+    for task in Path("/proc/self/task").iterdir():
+        try:
+            stat = (task / "stat").read_text()
+        except OSError:  # the thread ended
+            continue
+        comm, fields = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+        name = names.get(int(task.name), comm)
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
 def _pct(values: list[float] | np.ndarray, q: float) -> float:
     return float(np.percentile(np.asarray(values), q)) if len(values) else float("nan")
 
@@ -135,15 +151,17 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
             session.command("record")
             box["t0"] = time.perf_counter()
             cpu0, thread0 = time.process_time(), time.thread_time()
+            box["threads0"] = thread_cpu()
             try:
                 session.run()
             finally:
                 box["wall"] = time.perf_counter() - float(box["t0"])  # type: ignore[arg-type]
                 box["cpu"] = time.process_time() - cpu0
                 box["control_cpu"] = time.thread_time() - thread0
+                box["threads"] = thread_cpu()
                 shot_ready.set()
 
-        worker = threading.Thread(target=drive)
+        worker = threading.Thread(target=drive, name="control loop")
         worker.start()
         ready.wait()
         os.sched_setaffinity(0, all_cores)  # the browser stands for the operator's machine: not on that core
@@ -188,6 +206,10 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     print(f"  CPU per control step (ms, the budget is 50): this process {cpu / n * 1000:.1f}, of which the "
           f"control thread {control_cpu / n * 1000:.1f} and the reader, view publisher and viser threads "
           f"{(cpu - control_cpu) / n * 1000:.1f}")
+    before, after = box["threads0"], box["threads"]  # type: ignore[assignment]
+    per_thread = sorted(((after[k] - before.get(k, 0.0)) / n * 1000, k) for k in after)  # type: ignore[union-attr]
+    print("  CPU per step by thread (ms): " + ", ".join(f"{name} {ms:.1f}" for ms, name in per_thread[::-1]
+                                                     if ms >= 0.05))
     print(f"  operator view: {view.published} snapshots published, {view.superseded} superseded by a newer "
           f"one; the browser drew {frames / wall:.1f} frames/s")
     print(f"  monitor state in the browser after the step (ms, {len(lat)} updates): p50 {_pct(lat, 50):.0f}  "

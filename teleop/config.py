@@ -16,7 +16,7 @@ TELEOP_TOML = "teleop.toml"
 @dataclass(frozen=True)
 class LeaderConfig:
     baudrate: int = 1_000_000
-    reader_hz: float = 200.0
+    reader_hz: float = 120.0
     stale_s: float = 0.25
     gripper_threshold: float = 0.5
     max_joint_step: float = 0.15
