@@ -41,7 +41,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _wait(predicate: Callable[[], object], what: str, timeout: float = 60.0) -> None:
+def _wait(predicate: Callable[[], object], what: str, timeout: float = 240.0) -> None:
+    """Poll ``predicate``; the generous timeout is for a saturated CI host, where the browser's DOM can lag
+    the session by tens of seconds (docs/teleop.md, Benchmark)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if predicate():
@@ -119,7 +121,7 @@ def test_browser_hotkeys_drive_the_session(gello_cal: GelloCalibration, tmp_path
                 _wait(lambda: session.status.recording and session.status.step > 3, "r and a few steps")
                 press("m")  # mark done: the arm holds still for the gate, then the episode ends
                 _wait(lambda: session.status.settling and mode() == "settling", "m: settling")
-                _wait(lambda: session.status.failed == 1, "the marked episode to end", timeout=120)
+                _wait(lambda: session.status.failed == 1, "the marked episode to end")
                 press("r")
                 _wait(lambda: session.status.recording, "r for the last episode")
                 press("s")  # stop recording: stored (failed: the jar is not in the goal)
