@@ -86,7 +86,7 @@ def test_browser_hotkeys_drive_the_session(gello_cal: GelloCalibration, tmp_path
         worker = threading.Thread(target=drive, daemon=True)
         worker.start()
         try:
-            ready.wait(120)
+            ready.wait(240)
             assert "error" not in box, box.get("error")
             session: TeleopSession = box["session"]  # type: ignore[assignment]
             view: OperatorView = box["view"]  # type: ignore[assignment]
@@ -95,7 +95,7 @@ def test_browser_hotkeys_drive_the_session(gello_cal: GelloCalibration, tmp_path
                                              args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
                 page = browser.new_page(viewport={"width": 1280, "height": 800})
                 page.goto(view.url)
-                page.wait_for_selector("#mg-monitor", timeout=60_000)
+                page.wait_for_selector("#mg-monitor", timeout=240_000)
                 page.locator("body").click(position={"x": 5, "y": 5})  # focus the page, not a widget
 
                 def mode() -> str:
@@ -127,14 +127,14 @@ def test_browser_hotkeys_drive_the_session(gello_cal: GelloCalibration, tmp_path
                 press("s")  # stop recording: stored (failed: the jar is not in the goal)
                 _wait(lambda: session.status.failed == 2 and not session.status.recording, "s: stopped")
                 press("q")  # quit
-                worker.join(60)
+                worker.join(240)
                 assert not worker.is_alive(), "q did not end the session"
                 browser.close()
             view.close()
         finally:
             if worker.is_alive() and "session" in box:
                 box["session"].command("quit")  # type: ignore[attr-defined]
-                worker.join(60)
+                worker.join(240)
             reader.close()
             bus.close()
     assert "error" not in box, box.get("error")
