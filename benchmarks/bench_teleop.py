@@ -27,7 +27,7 @@ import numpy as np
 import teleop.bus
 from mgdata.sim.robot import HOME_Q
 from teleop.bus import ServoBus
-from teleop.config import load_teleop_config
+from teleop.config import ViewConfig, load_teleop_config
 from teleop.emulator.arms import ArmBuild, ManualClock
 from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
 from teleop.emulator.script import JointScript
@@ -42,6 +42,9 @@ CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 OBSERVER = """
 () => {
   window.__mg = [];
+  window.__frames = 0;
+  const tick = () => { window.__frames += 1; requestAnimationFrame(tick); };
+  requestAnimationFrame(tick);
   const seen = new Set();
   const grab = () => {
     const el = document.querySelector('#mg-monitor');
@@ -72,11 +75,27 @@ def sync_read_rate(family: str, seconds: float = 2.0) -> float:
     return rate
 
 
+def thread_cpu() -> dict[str, float]:
+    """CPU seconds so far per thread of this process, by name (Python's thread name, else the OS's)."""
+    names = {t.native_id: t.name for t in threading.enumerate()}
+    tick = os.sysconf("SC_CLK_TCK")
+    out: dict[str, float] = {}
+    for task in Path("/proc/self/task").iterdir():
+        try:
+            stat = (task / "stat").read_text()
+        except OSError:  # the thread ended
+            continue
+        comm, fields = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+        name = names.get(int(task.name), comm)
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
 def _pct(values: list[float] | np.ndarray, q: float) -> float:
     return float(np.percentile(np.asarray(values), q)) if len(values) else float("nan")
 
 
-def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
+def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: int | None) -> None:
     from playwright.sync_api import sync_playwright
 
     build = ArmBuild.gello(seed=3)
@@ -121,20 +140,28 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
             # the session (and its GL context) lives in this thread; the browser (playwright) in the main one
             nonlocal session
             session = TeleopSession(job, mapper, text, reader, on_step=on_step)
-            view = OperatorView(session, "127.0.0.1", port)
+            view_config = config.view
+            if scene_every is not None:
+                view_config = ViewConfig(config.view.image_every, scene_every)
+            view = OperatorView(session, "127.0.0.1", port, view_config)
             session.on_status = view.update
             box["session"], box["view"] = session, view
             ready.set()
             go.wait()
             session.command("record")
             box["t0"] = time.perf_counter()
+            cpu0, thread0 = time.process_time(), time.thread_time()
+            box["threads0"] = thread_cpu()
             try:
                 session.run()
             finally:
                 box["wall"] = time.perf_counter() - float(box["t0"])  # type: ignore[arg-type]
+                box["cpu"] = time.process_time() - cpu0
+                box["control_cpu"] = time.thread_time() - thread0
+                box["threads"] = thread_cpu()
                 shot_ready.set()
 
-        worker = threading.Thread(target=drive)
+        worker = threading.Thread(target=drive, name="control loop")
         worker.start()
         ready.wait()
         os.sched_setaffinity(0, all_cores)  # the browser stands for the operator's machine: not on that core
@@ -156,22 +183,35 @@ def session_loop(steps: int, screenshot: Path | None, port: int) -> None:
             wall = float(box["wall"])  # type: ignore[arg-type]
             time.sleep(0.5)
             seen = page.evaluate("() => window.__mg")
+            frames = page.evaluate("() => window.__frames")
             browser.close()
         view.close()
         rate = reader.rate_hz
         reader.close()
         bus.close()
-    starts = np.array(session.step_times)
-    sched = starts[0] + 0.05 * np.arange(len(starts))
-    # lateness against a schedule that restarts after an overrun (as the loop does)
-    late = np.maximum(0.0, np.diff(starts) - 0.05) * 1000 if len(starts) > 1 else np.zeros(1)
+    starts, due = np.array(session.step_times), np.array(session.step_due)
+    late = (starts - due) * 1000  # against the absolute schedule t0 + k * 50 ms
+    busy = np.array(session.step_busy) * 1000
+    timings = session.runner.timings
     lat = [(recv - sent) * 1000 for _step, sent, recv in seen if sent > 0]
-    print(f"session loop: {len(starts)} ticks in {wall:.1f} s ({len(starts) / wall:.1f} Hz, target 20 Hz) "
-          "on one core, "
-          f"leader read at {rate:.0f} Hz")
-    print(f"  period lateness (ms): p50 {_pct(late, 50):.1f}  p99 {_pct(late, 99):.1f}  max {late.max():.1f} "
-          "(target p99 <= 5)")
-    print(f"  drift of the last tick from a strict 20 Hz schedule: {(starts[-1] - sched[-1]) * 1000:.0f} ms")
+    n = len(starts)
+    print(f"session loop: {n} ticks in {wall:.1f} s ({n / wall:.1f} Hz, target 20 Hz) on one core, "
+          f"{session.skipped} slots skipped after overruns, leader read at {rate:.0f} Hz")
+    print(f"  lateness against the absolute schedule (ms): p50 {_pct(late, 50):.1f}  "
+          f"p99 {_pct(late, 99):.1f}  max {late.max():.1f} (target p99 <= 5)")
+    print(f"  step compute (ms): p50 {_pct(busy, 50):.1f}  p99 {_pct(busy, 99):.1f}  max {busy.max():.1f} "
+          f"of 50; per step on average: physics {timings.physics / n * 1000:.1f}, "
+          f"render+label+encode {timings.rendering / n * 1000:.1f}")
+    cpu, control_cpu = float(box["cpu"]), float(box["control_cpu"])  # type: ignore[arg-type]
+    print(f"  CPU per control step (ms, the budget is 50): this process {cpu / n * 1000:.1f}, of which the "
+          f"control thread {control_cpu / n * 1000:.1f} and the reader, view publisher and viser threads "
+          f"{(cpu - control_cpu) / n * 1000:.1f}")
+    before, after = box["threads0"], box["threads"]  # type: ignore[assignment]
+    per_thread = sorted(((after[k] - before.get(k, 0.0)) / n * 1000, k) for k in after)  # type: ignore[union-attr]
+    print("  CPU per step by thread (ms): " + ", ".join(f"{name} {ms:.1f}" for ms, name in per_thread[::-1]
+                                                     if ms >= 0.05))
+    print(f"  operator view: {view.published} snapshots published, {view.superseded} superseded by a newer "
+          f"one; the browser drew {frames / wall:.1f} frames/s")
     print(f"  monitor state in the browser after the step (ms, {len(lat)} updates): p50 {_pct(lat, 50):.0f}  "
           f"p99 {_pct(lat, 99):.0f}  max {max(lat) if lat else float('nan'):.0f} (target <= 100)")
     if screenshot is not None:
@@ -184,12 +224,14 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--screenshot", type=Path, default=None)
     parser.add_argument("--port", type=int, default=8765)
+    parser.add_argument("--scene-every", type=int, default=None,
+                        help="control steps between 3D scene updates (default: recipes/teleop.toml [view])")
     args = parser.parse_args()
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; reply latency allowance "
           f"{teleop.bus.DEFAULT_LATENCY_MS:.0f} ms")
     for family, name in (("dynamixel", "GELLO 8 x XL330"), ("feetech", "SO-101 6 x STS3215")):
         print(f"sync read {name}: {sync_read_rate(family):.0f} reads/s (target >= 1000)")
-    session_loop(args.steps, args.screenshot, args.port)
+    session_loop(args.steps, args.screenshot, args.port, args.scene_every)
 
 
 if __name__ == "__main__":

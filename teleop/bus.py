@@ -33,6 +33,10 @@ DEFAULT_LATENCY_MS = 16.0
 default). An emulated bus answering from a thread of a heavily loaded host needs more."""
 
 
+READ_BLOCK_S = 0.002
+"""Longest wait (s) of one serial read inside the SDKs' reply loops before they check their timeout."""
+
+
 @dataclass(frozen=True)
 class Motor:
     """One servo of a leader arm: its role (``joint3``, ``wrist_roll``), bus id and expected model number."""
@@ -87,6 +91,11 @@ class ServoBus:
             raise DeviceError(f"cannot open serial port {port}: {err}") from None
         if not opened or not self._port.setBaudRate(baudrate):
             raise DeviceError(f"cannot open serial port {port} at {baudrate} baud")
+        # The SDKs open the port non-blocking and poll it in a loop while a reply is due: a busy wait that
+        # holds a core (and the GIL, between reads) for the whole round trip. A short blocking read waits in
+        # the kernel instead and returns as soon as the bytes asked for are in; the SDKs' own packet
+        # timeouts are unchanged.
+        self._port.ser.timeout = READ_BLOCK_S
         self._ph = self._sdk.PacketHandler(self._f.protocol)
         try:
             self._check_motors()

@@ -16,7 +16,7 @@ TELEOP_TOML = "teleop.toml"
 @dataclass(frozen=True)
 class LeaderConfig:
     baudrate: int = 1_000_000
-    reader_hz: float = 200.0
+    reader_hz: float = 120.0
     stale_s: float = 0.25
     gripper_threshold: float = 0.5
     max_joint_step: float = 0.15
@@ -47,9 +47,20 @@ class RetargetConfig:
 
 
 @dataclass(frozen=True)
+class ViewConfig:
+    image_every: int = 4
+    scene_every: int = 1
+
+    def __post_init__(self) -> None:
+        if self.image_every < 1 or self.scene_every < 1:
+            raise RecipeError("[view] image_every and scene_every must be >= 1 (control steps)")
+
+
+@dataclass(frozen=True)
 class TeleopConfig:
     leader: LeaderConfig = field(default_factory=LeaderConfig)
     retarget: RetargetConfig = field(default_factory=RetargetConfig)
+    view: ViewConfig = field(default_factory=ViewConfig)
 
 
 def load_teleop_config(path: Path | None = None) -> TeleopConfig:

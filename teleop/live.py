@@ -82,7 +82,7 @@ def run_live(opts: LiveOptions, say: Callable[[str], None]) -> None:
         if opts.view:
             from teleop.view import OperatorView
 
-            view = OperatorView(session, opts.host, opts.http_port)
+            view = OperatorView(session, opts.host, opts.http_port, config.view)
             session.on_status = view.update
             say(f"operator view: {view.url}")
         if sys.stdin.isatty():

@@ -16,7 +16,8 @@ and applied at the top of a step:
 An episode also ends by itself, as a generated attempt does: at the first violation (``unsafe``), when the
 gate passes (kept), or at the family's horizon (``timeout``). Kept episodes go to ``out``; others to
 ``<out>_failed`` with ``keep_failed``, labelled with their failure stage; otherwise they are dropped. The
-raw leader stream of each stored episode goes beside it (:mod:`teleop.stream`), and
+raw leader stream of each stored episode goes beside it (:mod:`teleop.stream`), in the episode's own
+commit, and
 :meth:`TeleopSession.replay` re-simulates an episode from it, byte for byte.
 """
 
@@ -25,6 +26,7 @@ from __future__ import annotations
 import os
 import queue
 import shutil
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -51,7 +53,10 @@ from mgdata.sim.scene import build_scene
 from teleop.config import load_teleop_config
 from teleop.mapping import Mapper, StepEvents
 from teleop.reader import LeaderReader
-from teleop.stream import LeaderStream, stream_path
+from teleop.stream import LeaderStream, stream_rel
+
+SWITCH_S = 0.001
+"""The interpreter's thread switch interval during a live session (s; Python's default is 5 ms)."""
 
 COMMANDS = ("record", "stop", "done", "discard", "reset", "quit", "clutch", "grip")
 
@@ -162,6 +167,9 @@ class TeleopSession:
         self.stored: list[tuple[bool, int]] = []  # (kept, episode index) per stored episode
         self.finished = 0  # episodes ended by the gate, the horizon or the operator (stored or not)
         self.step_times: list[float] = []  # monotonic start time of every control step (for jitter)
+        self.step_due: list[float] = []  # when each of those steps was due on the absolute schedule
+        self.step_busy: list[float] = []  # s each of those steps took (commands, leader, step, publish)
+        self.skipped = 0  # schedule slots dropped after an overrun of more than a period
         self._pending = StepEvents()
         self._quit = False
         self._replaying: LeaderStream | None = None
@@ -175,21 +183,37 @@ class TeleopSession:
         self.commands.put(name)
 
     def run(self) -> None:
-        """The live loop at the control rate until ``quit`` or ``job.episodes`` stored episodes."""
+        """The live loop at the control rate until ``quit`` or ``job.episodes`` finished episodes.
+
+        Steps start on an absolute schedule ``t0 + k·dt`` (no drift; a late step is followed at once by the
+        next one on time). A step more than one period behind skips the missed slots instead of bursting
+        through them. While the loop runs the interpreter hands the GIL over every ``SWITCH_S`` so the
+        control thread is not held up by the leader reader's or the operator view's Python code.
+        """
         if self.reader is None:
             raise RecipeError("a live session needs a leader")
-        next_t = time.monotonic()
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH_S)
+        t0, k = time.monotonic(), 0
         try:
             while not self._quit:
+                due = t0 + k * self.dt
                 now = time.monotonic()
-                if now < next_t:
-                    time.sleep(next_t - now)
-                self.step_times.append(time.monotonic())
-                next_t += self.dt
-                if time.monotonic() - next_t > self.dt:  # overran by more than a period: do not catch up
-                    next_t = time.monotonic()
+                if now < due:
+                    time.sleep(due - now)
+                elif now - due > self.dt:  # more than a period behind: drop the missed slots
+                    skip = int((now - due) / self.dt)
+                    k += skip
+                    self.skipped += skip
+                    due = t0 + k * self.dt
+                start = time.monotonic()
+                self.step_times.append(start)
+                self.step_due.append(due)
                 self._tick()
+                self.step_busy.append(time.monotonic() - start)
+                k += 1
         finally:
+            sys.setswitchinterval(switch)
             self.close()
 
     def _tick(self) -> None:
@@ -318,8 +342,8 @@ class TeleopSession:
         if target is None:
             shutil.rmtree(staged, ignore_errors=True)
             return
-        index = target.append_staged(staged)
-        stream.save(stream_path(target.root, index))
+        data = stream.to_bytes()
+        index = target.append_staged(staged, extra=lambda ep: {stream_rel(ep): data})  # one commit
         self.stored.append((kept, index))
         self.status.kept += int(kept)
         self.status.failed += int(not kept)

@@ -2,8 +2,9 @@
 operator events) each control step used, with the device calibration, so the episode can be re-simulated
 exactly (``mgdata teleop replay``).
 
-Stored next to the episode in the dataset as ``meta/teleop/episode_<index>.npz``: a zip of ``.npy`` arrays
-with fixed timestamps (the same stream gives the same bytes) and a ``header.json``.
+Stored next to the episode in the dataset as ``meta/teleop/episode_<index>.npz``, committed in the same
+transaction as the episode (``DatasetWriter.append_staged(extra=...)``): a zip of ``.npy`` arrays with fixed
+timestamps (the same stream gives the same bytes) and a ``header.json``.
 """
 
 from __future__ import annotations
@@ -22,8 +23,13 @@ STREAM_DIR = "meta/teleop"
 _EPOCH = (1980, 1, 1, 0, 0, 0)
 
 
+def stream_rel(episode_index: int) -> str:
+    """The stream file of episode ``episode_index``, relative to the dataset root."""
+    return f"{STREAM_DIR}/episode_{episode_index:06d}.npz"
+
+
 def stream_path(dataset: Path, episode_index: int) -> Path:
-    return Path(dataset) / STREAM_DIR / f"episode_{episode_index:06d}.npz"
+    return Path(dataset) / stream_rel(episode_index)
 
 
 @dataclass(frozen=True)
@@ -49,13 +55,12 @@ class LeaderStream:
     clutch: np.ndarray
     grip_toggle: np.ndarray
 
-    def save(self, path: Path) -> None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+    def to_bytes(self) -> bytes:
+        """The stream file's bytes (the same stream gives the same bytes)."""
         header = {"arm": self.arm, "calibration": self.calibration, "family": self.family,
                   "task_id": self.task_id, "draw_index": self.draw_index}
-        tmp = path.with_name(path.name + ".tmp")
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        out = io.BytesIO()
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr(zipfile.ZipInfo("header.json", _EPOCH), json.dumps(header, sort_keys=True))
             for name in ("times", "ticks", "step_sample", "clutch", "grip_toggle"):
                 buf = io.BytesIO()
@@ -63,7 +68,7 @@ class LeaderStream:
                 info = zipfile.ZipInfo(f"{name}.npy", _EPOCH)
                 info.compress_type = zipfile.ZIP_DEFLATED
                 z.writestr(info, buf.getvalue())
-        tmp.replace(path)
+        return out.getvalue()
 
     @classmethod
     def load(cls, path: Path) -> LeaderStream:

@@ -2,9 +2,15 @@
 and the live monitor, with the session's commands as buttons.
 
 The scene is built once from the model's visual geoms (meshes, boxes, spheres, capsules, cylinders) under one
-frame per body; after each control step the body frames move to ``data.xpos/xquat``. The monitor panel shows
-each constraint's formula and state, a banner at the first violation, engagement, success and the gate's
-streak, and the step number the state belongs to (the benchmark measures its latency in the browser).
+frame per body; after each control step the body frames that moved go to ``data.xpos/xquat``. The monitor
+panel shows each constraint's formula and state, a banner at the first violation, engagement, success and the
+gate's streak, and the step number the state belongs to (the benchmark measures its latency in the browser).
+The session's commands are buttons and browser hotkeys (viser commands: the key alone, no modifier).
+
+The control loop only hands a snapshot over (:meth:`OperatorView.update`: the status, a copy of the body
+poses; microseconds): a publisher thread at a lower OS priority pushes the newest snapshot to viser, monitor
+first, and drops the ones it had no time for (a bounded, latest-value handoff), so the browser never slows the
+20 Hz loop down and never falls behind it.
 
 Example::
 
@@ -14,20 +20,38 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import html
+import os
 import threading
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from teleop.config import ViewConfig, load_teleop_config
 from teleop.sdk import require
 from teleop.session import SessionStatus, TeleopSession
 
 _BUTTONS = (("Record", "record", "r"), ("Stop", "stop", "s"), ("Mark done", "done", "m"),
             ("Discard", "discard", "d"), ("Reset task", "reset", "t"), ("Clutch", "clutch", "c"),
             ("Gripper", "grip", "g"), ("Quit", "quit", "q"))
-"""(label, session command, terminal key)."""
+"""(label, session command, hotkey in the terminal and in the browser)."""
+
+PUBLISHER_NICE = 5
+"""How much lower than the control loop the publisher thread runs (Linux nice increment)."""
+
+_POSE_EPS = 1e-6
+"""A body pose component that changed by less than this (m, or quaternion units) is not resent."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Snapshot:
+    status: SessionStatus
+    pos: np.ndarray | None  # (n_bodies, 3) xpos of the drawn bodies, or None (not this step)
+    quat: np.ndarray | None  # (n_bodies, 4) xquat
+    images: dict[str, np.ndarray] | None  # camera images to show, or None (not this step)
 
 
 def _geom_mesh(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -61,23 +85,31 @@ class OperatorView:
 
     Attributes:
         server: the viser server; ``url``: where to point a browser.
-        image_every: control steps between camera-image updates (images cost bandwidth and CPU).
+        image_every, scene_every: control steps between camera-image and 3D scene updates
+            (``[view]`` in ``recipes/teleop.toml``).
     """
 
     def __init__(self, session: TeleopSession, host: str = "127.0.0.1", port: int = 8080,
-                 image_every: int = 4) -> None:
+                 config: ViewConfig | None = None) -> None:
         viser = require("viser")
+        config = config or load_teleop_config().view
         self.session = session
-        self.image_every = image_every
+        self.image_every, self.scene_every = config.image_every, config.scene_every
         self.server: Any = viser.ViserServer(host=host, port=port, label="mgdata teleop", verbose=False)
         self.url = f"http://{host}:{port}/"
-        self._lock = threading.Lock()
         scene = session.scene
         self._model, self._data = scene.model, scene.data
         self._bodies: dict[int, Any] = {}
         self._build_scene()
         self._build_gui(session)
         self._n = 0
+        self._cond = threading.Condition()
+        self._next: _Snapshot | None = None
+        self._stop = False
+        self.published = 0  # snapshots pushed to viser
+        self.superseded = 0  # snapshots replaced by a newer one before the publisher got to them
+        self._thread = threading.Thread(target=self._publish_loop, name="operator-view", daemon=True)
+        self._thread.start()
 
     # -- scene ---------------------------------------------------------------------------------------------
     def _build_scene(self) -> None:
@@ -104,14 +136,24 @@ class OperatorView:
                               color=tuple(int(255 * c) for c in rgba[:3]),
                               opacity=float(rgba[3]) if rgba[3] < 1 else None,
                               wxyz=tuple(model.geom_quat[g]), position=tuple(model.geom_pos[g]))
-        self._move_bodies()
+        self._ids = np.array(list(self._bodies), dtype=np.int64)
+        self._frames = [self._bodies[int(b)] for b in self._ids]
+        self._sent_pos = np.full((len(self._ids), 3), np.inf)
+        self._sent_quat = np.full((len(self._ids), 4), np.inf)
+        self._move_bodies(self._data.xpos[self._ids], self._data.xquat[self._ids])
 
-    def _move_bodies(self) -> None:
-        d = self._data
-        with self.server.atomic():
-            for b, frame in self._bodies.items():
-                frame.position = tuple(d.xpos[b])
-                frame.wxyz = tuple(d.xquat[b])
+    def _move_bodies(self, pos: np.ndarray, quat: np.ndarray) -> int:
+        """Send the poses of the bodies that moved since the last send; returns how many."""
+        moved = np.flatnonzero((np.abs(pos - self._sent_pos).max(axis=1) > _POSE_EPS)
+                               | (np.abs(quat - self._sent_quat).max(axis=1) > _POSE_EPS))
+        if len(moved):
+            with self.server.atomic():
+                for i in moved:
+                    frame = self._frames[i]
+                    frame.position = tuple(pos[i])
+                    frame.wxyz = tuple(quat[i])
+            self._sent_pos[moved], self._sent_quat[moved] = pos[moved], quat[moved]
+        return len(moved)
 
     # -- panel ---------------------------------------------------------------------------------------------
     def _build_gui(self, session: TeleopSession) -> None:
@@ -121,6 +163,8 @@ class OperatorView:
         for label, cmd, key in _BUTTONS:
             button = gui.add_button(f"{label} ({key})")
             button.on_click(lambda _event, c=cmd: session.command(c))
+            hotkey = gui.add_command(label, hotkey=key.upper())  # type: ignore[arg-type]
+            hotkey.on_trigger(lambda _event, c=cmd: session.command(c))
         self._monitor = gui.add_html(self._monitor_html(session.status))
         self._images = {}
         with gui.add_folder("Cameras"):
@@ -151,13 +195,49 @@ class OperatorView:
 
     # -- per step ------------------------------------------------------------------------------------------
     def update(self, status: SessionStatus) -> None:
-        """Push the scene pose, the monitor and (every ``image_every`` steps) the camera images."""
-        self._move_bodies()
-        self._monitor.content = self._monitor_html(status)
+        """Hand the state after a control step to the publisher (called by the control loop; cheap).
+
+        Body poses go every ``scene_every`` steps and camera images every ``image_every``; a newer snapshot
+        replaces one not yet published (keeping its poses or images where the newer one has none)."""
         self._n += 1
-        if self._n % self.image_every == 0 and status.images:
-            for cam, handle in self._images.items():
-                handle.image = status.images[cam]
+        images = status.images if self._n % self.image_every == 0 and status.images else None
+        pos = quat = None
+        if self._n % self.scene_every == 0:
+            pos, quat = self._data.xpos[self._ids].copy(), self._data.xquat[self._ids].copy()
+        snap = _Snapshot(dataclasses.replace(status), pos, quat, images)
+        with self._cond:
+            old = self._next
+            if old is not None:
+                self.superseded += 1
+                if snap.images is None and old.images is not None:
+                    snap = dataclasses.replace(snap, images=old.images)
+                if snap.pos is None and old.pos is not None:
+                    snap = dataclasses.replace(snap, pos=old.pos, quat=old.quat)
+            self._next = snap
+            self._cond.notify()
+
+    def _publish_loop(self) -> None:
+        with contextlib.suppress(OSError, AttributeError):  # Linux: a per-thread priority below the loop's
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), PUBLISHER_NICE)
+        while True:
+            with self._cond:
+                while self._next is None and not self._stop:
+                    self._cond.wait()
+                if self._stop:
+                    return
+                snap, self._next = self._next, None
+            self._monitor.content = self._monitor_html(snap.status)
+            self.server.flush()  # a batch of GUI messages only: the browser applies it without a 3D frame
+            if snap.pos is not None and snap.quat is not None:
+                self._move_bodies(snap.pos, snap.quat)
+            if snap.images is not None:
+                for cam, handle in self._images.items():
+                    handle.image = snap.images[cam]
+            self.published += 1
 
     def close(self) -> None:
+        with self._cond:
+            self._stop = True
+            self._cond.notify()
+        self._thread.join(timeout=5.0)
         self.server.stop()

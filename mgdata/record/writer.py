@@ -20,6 +20,7 @@ Example::
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import TracebackType
 
@@ -242,10 +243,14 @@ class DatasetWriter:
 
     # --- appending ---------------------------------------------------------------------------------------
 
-    def append_staged(self, path: Path, *, remove: bool = True) -> int:
+    def append_staged(self, path: Path, *, remove: bool = True,
+                      extra: Callable[[int], Mapping[str, bytes]] | None = None) -> int:
         """Append a staged episode folder (see :class:`EpisodeStager`); returns its episode index.
 
         Its videos are copied packet by packet (no re-encode). ``remove`` deletes the folder afterwards.
+        ``extra``: more files that belong to the episode (e.g. teleop's raw leader stream), committed in the
+        same transaction: called with the new episode's index, it returns {path relative to the root: bytes}
+        (new paths only; not listed in ``info.json``'s checksums).
         """
         if self._stale:
             raise DatasetError(f"{self.root}: an earlier commit failed half-way; reopen it to recover")
@@ -259,6 +264,10 @@ class DatasetWriter:
         tx = Transaction(self.root)
         try:
             state = self._commit_episode(staged, table, tx)
+            for rel, data in (extra(len(self._records)) if extra is not None else {}).items():
+                if rel in tx.files or (self.root / rel).exists():
+                    raise DatasetError(f"{self.root}: {rel} already exists; an episode's extra files are new")
+                tx.path(rel).write_bytes(data)
         except BaseException:
             tx.abort()
             raise

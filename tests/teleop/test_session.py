@@ -54,6 +54,12 @@ def test_gello_session_records_labelled_episode_and_replays_byte_identical(gello
     final = stream.ticks[stream.step_sample[-1]]
     assert np.allclose(gello_cal.joints_q(final)[[0, 3]], HOME_Q[[0, 3]] + 0.3, atol=0.01)
     assert meta.source == "gello" and not meta.kept and meta.failure_stage == "goal_not_reached"
+    # the loop ran on an absolute 20 Hz grid: every step was due a whole number of periods after the
+    # previous one (more than one only where slots were skipped after an overrun) and never started early
+    periods = np.diff(session.step_due) / session.dt
+    assert np.allclose(periods, np.rint(periods), atol=1e-6) and (np.rint(periods) >= 1).all()
+    assert int(np.rint(periods).sum()) - len(periods) == session.skipped
+    assert all(start >= due for start, due in zip(session.step_times, session.step_due, strict=True))
     _check_replay(failed, tmp_path)
 
 
