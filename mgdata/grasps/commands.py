@@ -1,7 +1,8 @@
 """``mgdata grasps list | generate | validate``: inspect, create and check the grasp database.
 
 * ``generate MODEL…``: candidate grasps from each model's geometry (``category/model`` or glob patterns such
-  as ``'jar/*'``); replaces the model's *generated* grasps and keeps annotated ones.
+  as ``'jar/*'``); replaces the model's *generated* grasps and keeps annotated ones; rewrites only the files
+  of the categories named.
 * ``validate [MODEL…]``: run the in-simulation check on unvalidated grasps (``--all``: every grasp) and store
   each result; the file is rewritten atomically after every model, so an interrupted run keeps its progress.
 * ``list [MODEL…]``: grasp counts per model and validation status.
@@ -116,7 +117,8 @@ def register(app: typer.Typer) -> None:
         root = _db_dir(directory, create=True)
         cand_cfg = load_grasp_config().candidates
         db = GraspDB.load_dir(root)
-        for key in _match(models, model_names(), "object model"):
+        keys = _match(models, model_names(), "object model")
+        for key in keys:
             kept = [g for g in db.objects.get(key, ()) if g.source != "generated"]
             ids = {g.id for g in kept}
             new = [g for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
@@ -125,7 +127,7 @@ def register(app: typer.Typer) -> None:
                 continue
             db = db.with_object(key, kept + new)
             typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
-        for path in db.write_dir(root):
+        for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
             typer.echo(f"wrote {path}")
 
     @grasps.command("validate")
