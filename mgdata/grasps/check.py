@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
@@ -62,7 +63,9 @@ def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
     one's gripper +X forward. ``model`` (``category/model``) is needed for a grasp in a link's frame."""
     local = grasp.matrix()
     if grasp.frame:  # a link's frame: its pose in the object's root frame, articulation closed
-        link = next(lk for lk in get_model(model).links if lk.name == grasp.frame)
+        link = next((lk for lk in get_model(model).links if lk.name == grasp.frame), None) if model else None
+        if link is None:
+            raise GraspDBError(f"grasp {grasp.id!r}: frame {grasp.frame!r} is not a link of {model or '?'!r}")
         to_root = Pose(np.asarray(link.pos, dtype=float), np.asarray(link.quat, dtype=float)).matrix()
         local = to_root @ local
     approach, heading = local[:3, 2], local[:3, 0]
