@@ -12,8 +12,10 @@
   fingers closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a
   handle) or across the wall (rectangular vessels, the middle of each side), the TCP ``rim_depth`` below the
   rim but high enough that the inner fingertip clears the vessel's floor by ``tip_clearance``.
-* **handle** (mugs, teacups: ``handle_center``, ``handle_radius``): horizontal, from the handle's side, at
-  the outermost point of the handle's arc, fingers closing across the bar; two rolls.
+* **handle** (mugs, teacups: ``handle_center``, ``handle_radius``): at points of the handle's arc
+  ``handle_elevations_deg`` above its outermost point (0°: horizontal, from the handle's side), pointing at
+  the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
+  table where the handle is low (teacups).
 * **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent fits between the
   fingers: boxes, sponges, bottles): straight down at the bounding box's centre line, ``top_depth`` below
   the top, closing across the narrow side; two rolls.
@@ -41,6 +43,8 @@ import numpy as np
 from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.sim.assets.model import ObjectModel
 
+Vec3 = tuple[float, float, float]
+
 MAX_OPENING = 0.08
 """The Panda hand's finger gap when open (m)."""
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -62,6 +66,7 @@ class CandidateConfig:
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
+    handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 
 
 def _quat(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
@@ -153,13 +158,19 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
 
 
 def handle_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
-    """Horizontal grasps of a mug's or teacup's handle (at +X) at the outermost point of its arc."""
+    """Grasps of a mug's or teacup's handle (an arc in the XZ plane at +X) at points of the arc
+    ``handle_elevations_deg`` above its outermost point, pointing at the arc's centre."""
     geo = model.geometry
     if "handle_center" not in geo or "handle_radius" not in geo:
         return []
     cx, cz = (float(v) for v in geo["handle_center"])
-    pos = np.array([cx + float(geo["handle_radius"]), 0.0, cz])
-    return _two_rolls("handle", pos, np.array([-1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    radius = float(geo["handle_radius"])
+    out = []
+    for deg in dict.fromkeys(cfg.handle_elevations_deg):
+        out_dir = np.array([math.cos(math.radians(deg)), 0.0, math.sin(math.radians(deg))])
+        pos = np.array([cx, 0.0, cz]) + radius * out_dir
+        out += _two_rolls(f"handle_{round(deg):03d}", pos, -out_dir, np.array([0.0, 1.0, 0.0]))
+    return out
 
 
 def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:

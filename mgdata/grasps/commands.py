@@ -1,8 +1,9 @@
 """``mgdata grasps list | generate | validate``: inspect, create and check the grasp database.
 
 * ``generate MODEL…``: candidate grasps from each model's geometry (``category/model`` or glob patterns such
-  as ``'jar/*'``); replaces the model's *generated* grasps and keeps annotated ones; rewrites only the files
-  of the categories named.
+  as ``'jar/*'``); replaces the model's *generated* grasps (a candidate whose id and pose are unchanged keeps
+  its validation result; ``validate --all`` re-checks) and keeps annotated ones; rewrites only the files of
+  the categories named.
 * ``validate [MODEL…]``: run the in-simulation check on unvalidated grasps (``--all``: every grasp) and store
   each result; the file is rewritten atomically after every model, so an interrupted run keeps its progress.
 * ``list [MODEL…]``: grasp counts per model and validation status.
@@ -48,6 +49,17 @@ def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
     if not found:
         raise GraspDBError(f"{' '.join(patterns)!r} matches no {what}")
     return found
+
+
+def _pose_key(g: Grasp) -> tuple:
+    """A grasp's id, frame and pose as stored in the file (rounded like ``db.write_file``)."""
+    return g.id, g.frame, tuple(round(v, 6) for v in g.pos), tuple(round(v, 8) for v in g.quat)
+
+
+def _keep_result(g: Grasp, checked: dict[tuple, Grasp]) -> Grasp:
+    """``g`` with the validation result of the stored generated grasp of the same id and pose, if any."""
+    old = checked.get(_pose_key(g))
+    return g if old is None else g.with_status(old.status, old.detail)
 
 
 def register(app: typer.Typer) -> None:
@@ -106,7 +118,8 @@ def register(app: typer.Typer) -> None:
     @grasps.command("generate")
     def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
                  directory: Dir = None) -> None:
-        """Generate candidate grasps from geometry (replaces generated grasps, keeps annotated ones).
+        """Generate candidate grasps from geometry (replaces generated grasps, keeping the validation result
+        of any whose pose is unchanged; keeps annotated ones).
 
         Example: mgdata grasps generate 'jar/hinged_0*'
         """
@@ -119,9 +132,11 @@ def register(app: typer.Typer) -> None:
         db = GraspDB.load_dir(root)
         keys = _match(models, model_names(), "object model")
         for key in keys:
-            kept = [g for g in db.objects.get(key, ()) if g.source != "generated"]
+            old = db.objects.get(key, ())
+            kept = [g for g in old if g.source != "generated"]
             ids = {g.id for g in kept}
-            new = [g for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
+            checked = {_pose_key(g): g for g in old if g.source == "generated"}
+            new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
             if not kept and not new:
                 typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
                 continue

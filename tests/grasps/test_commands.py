@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from mgdata.grasps.db import GraspDB
@@ -32,13 +33,18 @@ def test_generate_validate_list(tmp_path: Path) -> None:
     assert len({g.id.rsplit("_", 1)[0] for g in checked if g.status == "valid"}) >= 11
     listed = _run("list", "--dir", str(tmp_path))
     assert "jar/hinged_05" in listed.stdout and "24" in listed.stdout
-    # regenerating keeps annotated grasps and replaces generated ones (and their results)
+    # regenerating keeps annotated grasps and replaces generated ones; a generated grasp whose stored pose is
+    # the generator's keeps its result, one whose pose differs comes back at the generator's pose, unchecked
     annotated = checked[0].__class__("mine", (0.0, 0.0, 0.06), (1.0, 0.0, 0.0, 0.0), "side", "annotated")
-    GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, *checked]).write_dir(tmp_path)
+    moved = replace(checked[0], pos=(checked[0].pos[0], checked[0].pos[1], checked[0].pos[2] + 0.01))
+    edited = GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, moved, *checked[1:]])
+    edited.write_dir(tmp_path)
     assert _run("generate", "jar/hinged_05", "--dir", str(tmp_path)).returncode == 0
     again = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
     assert again[0].id == "mine" and len(again) == 25
-    assert all(g.status == "unvalidated" for g in again)
+    assert (again[1].id, again[1].pos, again[1].status) == (checked[0].id, checked[0].pos, "unvalidated")
+    result = [(g.id, g.status, g.detail) for g in again[2:]]
+    assert result == [(g.id, g.status, g.detail) for g in checked[1:]]
 
 
 def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:
