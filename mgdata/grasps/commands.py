@@ -7,8 +7,8 @@
 * ``validate [MODEL…]``: run the in-simulation check on unvalidated grasps (``--all``: every grasp) and store
   each result; the file is rewritten atomically after every model, so an interrupted run keeps its progress.
 * ``list [MODEL…]``: grasp counts per model and validation status.
-* ``report [CATEGORY…]``: per category, objects covered (at least one valid grasp) of the models in the asset
-  library, and grasps valid / checked / total.
+* ``report [CATEGORY…]``: per category (default: all but particle sets), objects covered (at least one
+  valid grasp) of the models in the asset library, and grasps valid / checked / total.
 """
 
 from __future__ import annotations
@@ -85,7 +85,8 @@ def register(app: typer.Typer) -> None:
 
     @grasps.command("report")
     def report(categories: Annotated[list[str] | None, typer.Argument(
-                   help="Categories (default: every category of the asset library).")] = None,
+                   help="Categories (default: every category of the asset library but particle sets, "
+                        "i.e. dust and liquid).")] = None,
                directory: Dir = None) -> None:
         """Coverage per category: objects with a valid grasp / models in the library; grasps valid /
         checked / total.
@@ -93,11 +94,11 @@ def register(app: typer.Typer) -> None:
         Example: mgdata grasps report cup bowl cabinet
         """
         from mgdata.sim.assets import categories as library_categories
-        from mgdata.sim.assets import model_names
+        from mgdata.sim.assets import get_model, model_names
 
         db = GraspDB.load_dir(_db_dir(directory))
         known = library_categories()
-        wanted = categories or list(known)
+        wanted = categories or [c for c in known if get_model(model_names(c)[0]).particles is None]
         unknown = [c for c in wanted if c not in known]
         if unknown:
             raise GraspDBError(f"unknown object category {unknown[0]!r}; known: {', '.join(known)}")

@@ -7,7 +7,8 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from mgdata.grasps.db import GraspDB
+from mgdata.grasps.db import Grasp, GraspDB
+from mgdata.sim.assets import model_names
 
 MGDATA = str(Path(sys.executable).parent / "mgdata")
 
@@ -54,3 +55,23 @@ def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:
     (tmp_path / "jar.json").write_text("{oops")
     proc = _run("list", "--dir", str(tmp_path))
     assert proc.returncode == 2 and "jar.json: not valid JSON" in proc.stderr
+
+
+def test_report_counts_coverage_per_category(tmp_path: Path) -> None:
+    def grasp(gid: str, status: str) -> Grasp:
+        return Grasp(gid, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0, 0.0), "top_down", "generated").with_status(status)
+
+    db = GraspDB({}).with_object("box/carton_00", [grasp("a", "valid"), grasp("b", "invalid")])
+    db = db.with_object("box/carton_01", [grasp("a", "invalid"), grasp("b", "unvalidated")])
+    db.write_dir(tmp_path)
+    proc = _run("report", "box", "bowl", "--dir", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    rows = {line.split("│")[1].strip(): [c.strip() for c in line.split("│")[2:-1]]
+            for line in proc.stdout.splitlines() if line.startswith("│")}
+    n_box, n_bowl = len(model_names("box")), len(model_names("bowl"))
+    assert rows["box"] == [f"1 / {n_box}", "1", "3", "4"]
+    assert rows["bowl"] == [f"0 / {n_bowl}", "0", "0", "0"]
+    assert rows["all"] == [f"1 / {n_box + n_bowl}", "1", "3", "4"]
+    bad = _run("report", "bowls", "--dir", str(tmp_path))
+    assert bad.returncode == 2 and "unknown object category 'bowls'" in bad.stderr
+    assert "Traceback" not in bad.stderr
