@@ -72,3 +72,4 @@ def test_rim_pinch_lifts_a_tub_level() -> None:
     pinch = next(g for g in candidates(get_model(model), CandidateConfig()) if g.id == "rim_px_r1")
     status, detail = check_grasp(model, pinch, GraspCheckConfig())
     assert status == "valid", detail
+    assert check_grasp(model, pinch, GraspCheckConfig()) == (status, detail)  # deterministic
