@@ -57,23 +57,28 @@ class GraspCheckConfig:
 
 
 def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
-                    model: str = "") -> tuple[tuple[float, float, float], float]:
-    """Where the check stands the object: position (m) putting the grasp's TCP target at ``place_x`` on the
-    robot's centre line, and yaw (rad) turning a horizontal approach away from the robot, or a vertical
-    one's gripper +X forward. ``model`` (``category/model``) is needed for a grasp in a link's frame."""
+                    model: str) -> tuple[tuple[float, float, float], float]:
+    """Where the check stands object model ``model`` (``category/model``) for ``grasp``: position (m) and
+    yaw (rad). The yaw turns a horizontal approach away from the robot, or a vertical one's gripper +X
+    forward; the position puts the grasp's TCP target at ``place_x`` on the robot's centre line, as far as
+    that moves the object by no more than its own size (a pose far from the object stays far from it)."""
+    obj = get_model(model)
     local = grasp.matrix()
     if grasp.frame:  # a link's frame: its pose in the object's root frame, articulation closed
-        link = next((lk for lk in get_model(model).links if lk.name == grasp.frame), None) if model else None
+        link = next((lk for lk in obj.links if lk.name == grasp.frame), None)
         if link is None:
-            raise GraspDBError(f"grasp {grasp.id!r}: frame {grasp.frame!r} is not a link of {model or '?'!r}")
+            raise GraspDBError(f"grasp {grasp.id!r}: frame {grasp.frame!r} is not a link of {model!r}")
         to_root = Pose(np.asarray(link.pos, dtype=float), np.asarray(link.quat, dtype=float)).matrix()
         local = to_root @ local
     approach, heading = local[:3, 2], local[:3, 0]
     ref = approach if np.hypot(approach[0], approach[1]) > 0.5 else heading
     yaw = -math.atan2(ref[1], ref[0]) if np.hypot(ref[0], ref[1]) > 1e-6 else 0.0
+    offset = local[:2, 3].copy()
+    reach = max(obj.size[0], obj.size[1])
+    if np.linalg.norm(offset) > reach:
+        offset *= reach / np.linalg.norm(offset)
     c, s = math.cos(yaw), math.sin(yaw)
-    gx, gy = local[0, 3], local[1, 3]
-    return (cfg.place_x - (c * gx - s * gy), -(s * gx + c * gy), TABLE_TOP_Z), yaw
+    return (cfg.place_x - (c * offset[0] - s * offset[1]), -(s * offset[0] + c * offset[1]), TABLE_TOP_Z), yaw
 
 
 def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
