@@ -16,9 +16,9 @@
   ``handle_elevations_deg`` above its outermost point (0°: horizontal, from the handle's side), pointing at
   the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
   table where the handle is low (teacups).
-* **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent fits between the
-  fingers: boxes, sponges, bottles): straight down at the bounding box's centre line, ``top_depth`` below
-  the top, closing across the narrow side; two rolls.
+* **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent plus
+  ``top_clearance`` fits between the fingers: boxes, sponges, bottles): straight down at the bounding box's
+  centre line, ``top_depth`` below the top, closing across the narrow side; two rolls.
 * **knob** (a model with a root geom named ``knob``: tub lids): straight down on the knob, closing along X
   and along Y, two rolls each, the fingertips ``tip_clearance`` above the surface the knob stands on.
 * **drawer handle** (a slide articulation with ``handle_pos`` and ``handle_axis``: cabinets): from the
@@ -59,6 +59,7 @@ class CandidateConfig:
     palm_clearance: float = 0.008  # m kept between the palm and the object
     finger_clearance: float = 0.012  # m of opening to spare around the grasped width
     top_depth: float = 0.02  # m below the object's top for top grasps (fingertips overlap the object)
+    top_clearance: float = 0.006  # m of opening to spare around a top grasp's width (straight down)
     min_side_height: float = 0.055  # m above the object's base: lower side grasps put the wrist on the table
     side_top_clearance: float = 0.015  # m kept between a side grasp and the object's top (rim, lid)
     fingertip_reach: float = 0.0085  # m from the TCP to the fingertips, along the approach (Panda hand)
@@ -180,7 +181,7 @@ def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
         return []
     sx, sy, sz = model.size
     narrow = min(sx, sy)
-    if narrow + cfg.finger_clearance > MAX_OPENING:
+    if narrow + cfg.top_clearance > MAX_OPENING:
         return []
     close_along = np.array([1.0, 0.0, 0.0]) if sx <= sy else np.array([0.0, 1.0, 0.0])
     pos = np.array([0.0, 0.0, max(sz - cfg.top_depth, sz / 2.0)])

@@ -34,7 +34,7 @@ def test_top_grasps_only_for_narrow_objects() -> None:
     for name in model_names("box")[:4]:
         model = get_model(name)
         tops = [g for g in candidates(model, cfg) if g.approach == "top_down"]
-        narrow = min(model.size[:2]) + cfg.finger_clearance <= MAX_OPENING
+        narrow = min(model.size[:2]) + cfg.top_clearance <= MAX_OPENING
         assert bool(tops) == narrow
         for g in tops:
             assert np.allclose(g.matrix()[:3, 2], [0, 0, -1])
