@@ -135,7 +135,7 @@ class LiveChecker:
                 and last[0].angle_to(pose) < WARM_ANGLE)
         witnesses: list[np.ndarray | None] = []
         grasp = Grasp("draft", tuple(pose.pos), tuple(pose.quat), approach_hint(pose.quat), "annotated")
-        placements = (sim_check_placement(grasp, self.check_cfg), *self.placements)
+        placements = (sim_check_placement(grasp, self.check_cfg, self.obj.key), *self.placements)
         width = self._width(pose)
         self._depth = None
         results: list[dict[str, str | None]] = []

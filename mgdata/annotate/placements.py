@@ -45,9 +45,9 @@ class Placement:
         return f"{self.label} (x {self.pos[0]:.2f}, y {self.pos[1]:+.2f}, yaw {math.degrees(self.yaw):+.0f}°)"
 
 
-def sim_check_placement(grasp: Grasp, cfg: GraspCheckConfig) -> Placement:
-    """The placement ``mgdata grasps validate`` uses for this grasp."""
-    pos, yaw = check_placement(grasp, cfg)
+def sim_check_placement(grasp: Grasp, cfg: GraspCheckConfig, model: str) -> Placement:
+    """The placement ``mgdata grasps validate`` uses for this grasp of object model ``model``."""
+    pos, yaw = check_placement(grasp, cfg, model)
     return Placement("sim check", pos, yaw)
 
 

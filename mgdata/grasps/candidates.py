@@ -1,14 +1,31 @@
-"""Candidate grasps from an object model's geometry: side grasps around round objects, top grasps on narrow
-ones. Candidates are ``source="generated"``, ``status="unvalidated"`` until ``mgdata grasps validate`` runs.
+"""Candidate grasps from an object model's geometry, one generator per kind of shape. Candidates are
+``source="generated"``, ``status="unvalidated"`` until ``mgdata grasps validate`` runs.
 
-* **side** (objects with ``outer_radius`` in their geometry, e.g. jars, cups, bottles): the gripper points at
-  the object's axis horizontally from ``angles`` directions around it, fingers closing horizontally, at the
-  model's ``grasp_height`` (or mid-height) raised to ``min_side_height`` (the wrist clears the table) but
-  kept ``side_top_clearance`` below the top; the TCP sits on the axis unless the palm would touch the object,
-  in which case it backs off. Two rolls per direction (fingers swapped), which reach differently.
-* **top** (objects whose narrower horizontal extent fits between the fingers, without an articulation): the
-  gripper points straight down at the bounding box's centre line, ``top_depth`` below the top, closing
-  across the narrow side; two rolls.
+* **side** (round objects narrow enough for the hand at the grasp height: ``outer_radius`` of a jar,
+  ``radius`` of a bottle, the ``bottom_radius``…``rim_radius`` taper of a cup): the gripper points at the
+  object's axis horizontally from ``angles`` directions, fingers closing horizontally, at the model's
+  ``grasp_height`` (or mid-height) raised to ``min_side_height`` (the wrist clears the table) but kept
+  ``side_top_clearance`` below the top; the TCP sits on the axis unless the palm would touch the object, in
+  which case it backs off. Two rolls per direction (fingers swapped), which reach differently.
+* **rim** (open vessels with a ``wall`` too wide for a side grasp: bowls, plates, mugs, teacups, tubs,
+  trays): a pinch of the wall from above. The gripper points straight down over the middle of the wall,
+  fingers closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a
+  handle) or across the wall (rectangular vessels, the middle of each side), the TCP ``rim_depth`` below the
+  rim but high enough that the inner fingertip clears the vessel's floor by ``tip_clearance``.
+* **handle** (mugs, teacups: ``handle_center``, ``handle_radius``): at points of the handle's arc
+  ``handle_elevations_deg`` above its outermost point (0°: horizontal, from the handle's side), pointing at
+  the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
+  table where the handle is low (teacups).
+* **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent plus
+  ``top_clearance`` fits between the fingers: boxes, sponges, bottles): straight down at the bounding box's
+  centre line, ``top_depth`` below the top, closing across the narrow side; two rolls.
+* **knob** (a model with a root geom named ``knob``: tub lids): straight down on the knob, closing along X
+  and along Y, two rolls each, the fingertips ``tip_clearance`` above the surface the knob stands on.
+* **drawer handle** (a slide articulation with ``handle_pos`` and ``handle_axis``: cabinets): from the
+  front, fingers closing across the bar, **expressed in the drawer's frame** (``Grasp.frame``), so the
+  grasp moves with the drawer; two rolls.
+
+Objects none of these fit (a chopping board lying flat: 16–20 cm wide, 1.5 cm thick) get no candidates.
 
 Example::
 
@@ -26,8 +43,11 @@ import numpy as np
 from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.sim.assets.model import ObjectModel
 
+Vec3 = tuple[float, float, float]
+
 MAX_OPENING = 0.08
 """The Panda hand's finger gap when open (m)."""
+DOWN = np.array([0.0, 0.0, -1.0])
 
 
 @dataclass(frozen=True)
@@ -39,8 +59,15 @@ class CandidateConfig:
     palm_clearance: float = 0.008  # m kept between the palm and the object
     finger_clearance: float = 0.012  # m of opening to spare around the grasped width
     top_depth: float = 0.02  # m below the object's top for top grasps (fingertips overlap the object)
+    top_clearance: float = 0.006  # m of opening to spare around a top grasp's width (straight down)
     min_side_height: float = 0.055  # m above the object's base: lower side grasps put the wrist on the table
     side_top_clearance: float = 0.015  # m kept between a side grasp and the object's top (rim, lid)
+    fingertip_reach: float = 0.0085  # m from the TCP to the fingertips, along the approach (Panda hand)
+    tip_clearance: float = 0.002  # m kept between a fingertip and the surface below it
+    rim_angles: int = 8  # rim-pinch directions around a round vessel
+    rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
+    handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
+    handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 
 
 def _quat(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
@@ -53,52 +80,149 @@ def _quat(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[float, float, fl
     return tuple(float(v) for v in quat)  # type: ignore[return-value]
 
 
+def _two_rolls(name: str, pos: np.ndarray, approach: np.ndarray, closing: np.ndarray,
+               frame: str = "") -> list[Grasp]:
+    """The grasp at ``pos`` approaching along ``approach`` with fingers closing along ±``closing``, in both
+    rolls (``_r0``: gripper +Y = ``closing``; ``_r1``: −``closing``)."""
+    out = []
+    for roll in (0, 1):
+        y = closing * (1.0 if roll == 0 else -1.0)
+        quat = _quat(np.cross(y, approach), y, approach)
+        out.append(Grasp(f"{name}_r{roll}", tuple(float(v) for v in pos), quat,  # type: ignore[arg-type]
+                         approach_hint(quat), "generated", frame=frame))
+    return out
+
+
+def _side_radius(model: ObjectModel, height: float) -> float | None:
+    """Radius (m) of a round object at ``height``: jar ``outer_radius``, bottle ``radius``, or a vessel's
+    linear taper from ``bottom_radius`` to ``rim_radius``; None if it is not round."""
+    geo = model.geometry
+    if "outer_radius" in geo:
+        return float(geo["outer_radius"])
+    if "radius" in geo and "body_height" in geo:
+        return float(geo["radius"])
+    if "rim_radius" in geo and "bottom_radius" in geo:
+        bottom, rim, top = float(geo["bottom_radius"]), float(geo["rim_radius"]), float(geo["height"])
+        return max(bottom, rim) if "handle_center" in geo else bottom + (rim - bottom) * height / top
+    return None
+
+
 def side_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     """Horizontal grasps around a round object's axis (empty if it is too wide for the hand)."""
     geo = model.geometry
-    if "outer_radius" not in geo:
-        return []
-    radius = float(geo["outer_radius"])
-    if 2.0 * radius + cfg.finger_clearance > MAX_OPENING:
-        return []
     top = float(geo.get("height", model.size[2])) - cfg.side_top_clearance
     height = min(max(float(geo.get("grasp_height", model.size[2] / 2.0)), cfg.min_side_height), top)
+    radius = _side_radius(model, height)
+    if radius is None or 2.0 * radius + cfg.finger_clearance > MAX_OPENING:
+        return []
     back = max(0.0, radius + cfg.palm_clearance - cfg.palm_depth)
     out = []
     for k in range(cfg.angles):
         phi = 2.0 * math.pi * k / cfg.angles
         side = np.array([math.cos(phi), math.sin(phi), 0.0])  # where the gripper sits
-        approach = -side
-        for roll in (0, 1):
-            y = np.array([-math.sin(phi), math.cos(phi), 0.0]) * (1.0 if roll == 0 else -1.0)
-            x = np.cross(y, approach)
-            pos = side * back + np.array([0.0, 0.0, height])
-            quat = _quat(x, y, approach)
-            out.append(Grasp(f"side_{round(math.degrees(phi)):03d}_r{roll}", tuple(pos.tolist()), quat,
-                             approach_hint(quat), "generated"))
+        closing = np.array([-math.sin(phi), math.cos(phi), 0.0])
+        pos = side * back + np.array([0.0, 0.0, height])
+        out += _two_rolls(f"side_{round(math.degrees(phi)):03d}", pos, -side, closing)
+    return out
+
+
+def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
+    """Top-down pinches across the wall of an open vessel too wide for a side grasp."""
+    geo = model.geometry
+    if "wall" not in geo or model.articulation is not None or side_grasps(model, cfg):
+        return []
+    wall, bottom = float(geo["wall"]), float(geo.get("bottom", 0.0))
+    if "rim_radius" in geo:
+        height = float(geo["height"])
+        sites = []
+        for k in range(cfg.rim_angles):
+            phi = 2.0 * math.pi * k / cfg.rim_angles
+            if "handle_center" in geo and abs(math.remainder(phi, 2.0 * math.pi)) < math.radians(
+                    cfg.handle_clear_deg):
+                continue  # the handle is at +X
+            radial = np.array([math.cos(phi), math.sin(phi), 0.0])
+            sites.append((f"rim_{round(math.degrees(phi)):03d}",
+                          radial * (float(geo["rim_radius"]) - wall / 2.0), radial))
+    elif "half_extents" in geo:
+        hx, hy, hz = (float(v) for v in geo["half_extents"])
+        height = 2.0 * hz
+        sites = [(name, np.array(axis) * (half - wall / 2.0), np.array(axis))
+                 for name, axis, half in (("rim_px", (1.0, 0.0, 0.0), hx), ("rim_py", (0.0, 1.0, 0.0), hy),
+                                          ("rim_nx", (-1.0, 0.0, 0.0), hx), ("rim_ny", (0.0, -1.0, 0.0), hy))]
+    else:
+        return []
+    z = max(height - cfg.rim_depth, bottom + cfg.fingertip_reach + cfg.tip_clearance)
+    out = []
+    for name, xy, closing in sites:
+        out += _two_rolls(name, xy + np.array([0.0, 0.0, z]), DOWN, closing)
+    return out
+
+
+def handle_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
+    """Grasps of a mug's or teacup's handle (an arc in the XZ plane at +X) at points of the arc
+    ``handle_elevations_deg`` above its outermost point, pointing at the arc's centre."""
+    geo = model.geometry
+    if "handle_center" not in geo or "handle_radius" not in geo:
+        return []
+    cx, cz = (float(v) for v in geo["handle_center"])
+    radius = float(geo["handle_radius"])
+    out = []
+    for deg in dict.fromkeys(cfg.handle_elevations_deg):
+        out_dir = np.array([math.cos(math.radians(deg)), 0.0, math.sin(math.radians(deg))])
+        pos = np.array([cx, 0.0, cz]) + radius * out_dir
+        out += _two_rolls(f"handle_{round(deg):03d}", pos, -out_dir, np.array([0.0, 1.0, 0.0]))
     return out
 
 
 def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
-    """Straight-down grasps across the narrow horizontal side (empty for articulated or wide objects)."""
-    if model.articulation is not None:
+    """Straight-down grasps across the narrow horizontal side (empty for articulated, hollow or wide
+    objects)."""
+    if model.articulation is not None or "wall" in model.geometry:
         return []
     sx, sy, sz = model.size
     narrow = min(sx, sy)
-    if narrow + cfg.finger_clearance > MAX_OPENING:
+    if narrow + cfg.top_clearance > MAX_OPENING:
         return []
     close_along = np.array([1.0, 0.0, 0.0]) if sx <= sy else np.array([0.0, 1.0, 0.0])
-    approach = np.array([0.0, 0.0, -1.0])
-    pos = (0.0, 0.0, max(sz - cfg.top_depth, sz / 2.0))
+    pos = np.array([0.0, 0.0, max(sz - cfg.top_depth, sz / 2.0)])
+    return _two_rolls("top", pos, DOWN, close_along)
+
+
+def knob_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
+    """Straight-down grasps of a root geom named ``knob`` (a box), closing along X and along Y."""
+    knob = next((g for g in model.geoms if g.name == "knob" and g.kind == "box"), None)
+    if knob is None:
+        return []
+    hx, hy, hz = knob.size[:3]
+    centre = np.array(knob.pos, dtype=float)
+    z = max(centre[2], centre[2] - hz + cfg.fingertip_reach + cfg.tip_clearance)
     out = []
-    for roll in (0, 1):
-        y = close_along * (1.0 if roll == 0 else -1.0)
-        x = np.cross(y, approach)
-        quat = _quat(x, y, approach)
-        out.append(Grasp(f"top_r{roll}", pos, quat, approach_hint(quat), "generated"))
+    for name, axis, half in (("knob_x", (1.0, 0.0, 0.0), hx), ("knob_y", (0.0, 1.0, 0.0), hy)):
+        if 2.0 * half + cfg.finger_clearance <= MAX_OPENING:
+            out += _two_rolls(name, np.array([centre[0], centre[1], z]), DOWN, np.array(axis))
     return out
+
+
+def drawer_handle_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
+    """Grasps of a drawer's bar handle from the front (+X side), fingers closing across the bar, in the
+    frame of the link that carries the slide joint."""
+    geo, art = model.geometry, model.articulation
+    if art is None or art.kind != "slide" or "handle_pos" not in geo or "handle_axis" not in geo:
+        return []
+    link = next(lk for lk in model.links if lk.joint.name == art.joint)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(link.quat, dtype=float))
+    to_link = rot.reshape(3, 3).T  # root frame -> link frame (the joint is closed in the model's pose)
+    pos = to_link @ (np.asarray(geo["handle_pos"], dtype=float) - np.asarray(link.pos, dtype=float))
+    approach = to_link @ np.array([-1.0, 0.0, 0.0])
+    closing = np.cross(to_link @ np.asarray(geo["handle_axis"], dtype=float), approach)
+    return _two_rolls("handle", pos, approach, closing / np.linalg.norm(closing), frame=link.name)
+
+
+GENERATORS = (side_grasps, rim_grasps, handle_grasps, top_grasps, knob_grasps, drawer_handle_grasps)
+"""Every generator, in the order their candidates are listed."""
 
 
 def candidates(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     """All candidate grasps of a model, side grasps first."""
-    return side_grasps(model, cfg) + top_grasps(model, cfg)
+    return [g for gen in GENERATORS for g in gen(model, cfg)]

@@ -1,11 +1,19 @@
-"""In-simulation validation of a grasp: reach it, close on the object, lift it, and see that it comes along.
+"""In-simulation validation of a grasp: reach it, close on the object, then lift it (a free object) or pull
+its drawer open (a grasp in a drawer's frame), and see that the object comes along.
 
-The object stands alone on the table in front of the robot, its articulation closed, turned so that the
-grasp's approach points away from the robot (side grasps are then checked from their natural direction;
-where the grasp is reachable in a real task is the skeleton's business). The check plans with the same
-motion facade as the generator: a free move to the pre-grasp pose, a straight approach, closing the gripper,
-a straight lift, a short hold. The grasp is **valid** when the object rose by at least
-``min_lift_fraction`` of the lift, both fingers still touch it and it tilted less than ``max_tilt_deg``.
+The object stands alone on the table, its articulation closed, placed so that the grasp's TCP target lies
+``place_x`` in front of the robot base on its centre line, and turned so that a horizontal approach points
+away from the robot (side grasps are checked from their natural direction) or, for a vertical approach,
+the hand keeps its home heading (gripper +X forward); where the grasp is reachable in a real task is the
+skeleton's business. The check plans with the same motion facade as the generator: a free move to the
+pre-grasp pose, a straight approach, closing the gripper, then
+
+* **lift** (free objects): a straight lift by ``lift`` and a short hold. Valid when the object rose by at
+  least ``min_lift_fraction`` of the lift, both fingers still touch it and it tilted less than
+  ``max_tilt_deg`` (a plate or a tray lifted by its rim must stay level);
+* **pull** (a grasp whose ``frame`` is the moving link of a slide articulation: a drawer handle): a straight
+  pull by ``pull`` along the slide axis and a short hold. Valid when the slide joint (read from ``qpos``)
+  opened by at least ``min_pull_fraction`` of the pull and both fingers still touch the handle.
 
 Example::
 
@@ -20,9 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
+from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.world import TABLE_TOP_Z
@@ -41,19 +51,38 @@ class GraspCheckConfig:
     hold_steps: int = 10
     min_lift_fraction: float = 0.8
     max_tilt_deg: float = 20.0
+    pull: float = 0.08  # m a drawer is pulled open
+    min_pull_fraction: float = 0.8
     seed: int = 0
 
 
-def check_placement(grasp: Grasp, cfg: GraspCheckConfig) -> tuple[tuple[float, float, float], float]:
-    """Where the check stands the object: position (m), and yaw (rad) turning the approach away from the
-    robot."""
-    approach = grasp.matrix()[:3, 2]
-    yaw = -math.atan2(approach[1], approach[0]) if np.hypot(approach[0], approach[1]) > 1e-6 else 0.0
-    return (cfg.place_x, 0.0, TABLE_TOP_Z), yaw
+def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
+                    model: str) -> tuple[tuple[float, float, float], float]:
+    """Where the check stands object model ``model`` (``category/model``) for ``grasp``: position (m) and
+    yaw (rad). The yaw turns a horizontal approach away from the robot, or a vertical one's gripper +X
+    forward; the position puts the grasp's TCP target at ``place_x`` on the robot's centre line, as far as
+    that moves the object by no more than its own size (a pose far from the object stays far from it)."""
+    obj = get_model(model)
+    local = grasp.matrix()
+    if grasp.frame:  # a link's frame: its pose in the object's root frame, articulation closed
+        link = next((lk for lk in obj.links if lk.name == grasp.frame), None)
+        if link is None:
+            raise GraspDBError(f"grasp {grasp.id!r}: frame {grasp.frame!r} is not a link of {model!r}")
+        to_root = Pose(np.asarray(link.pos, dtype=float), np.asarray(link.quat, dtype=float)).matrix()
+        local = to_root @ local
+    approach, heading = local[:3, 2], local[:3, 0]
+    ref = approach if np.hypot(approach[0], approach[1]) > 0.5 else heading
+    yaw = -math.atan2(ref[1], ref[0]) if np.hypot(ref[0], ref[1]) > 1e-6 else 0.0
+    offset = local[:2, 3].copy()
+    reach = max(obj.size[0], obj.size[1])
+    if np.linalg.norm(offset) > reach:
+        offset *= reach / np.linalg.norm(offset)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (cfg.place_x - (c * offset[0] - s * offset[1]), -(s * offset[0] + c * offset[1]), TABLE_TOP_Z), yaw
 
 
 def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
-    pos, yaw = check_placement(grasp, cfg)
+    pos, yaw = check_placement(grasp, cfg, model)
     return TaskSpec(family="grasp_check", task_id=0, condition="base", prompt="", seed=cfg.seed,
                     objects=(ObjectPlacement("object", model, pos, yaw),),
                     safety=SafetySpec("grasp_check", (), ()))
@@ -92,8 +121,7 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     ctl = JointController(scene)
     word = int.from_bytes(hashlib.sha256(grasp.id.encode()).digest()[:4], "little")
     rng = np.random.default_rng(np.random.SeedSequence([cfg.seed, word]))
-    obj_pos, obj_rot = scene.object_pose("object")
-    world = Pose.from_pos_mat(obj_pos, obj_rot).matrix() @ grasp.matrix()
+    world = grasp.world_matrix(scene.model, scene.data, "object")
     target = Pose.from_matrix(world)
     pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
     touch = AllowedContacts((("hand", "object"),))
@@ -106,6 +134,15 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     except MotionFailure as fail:
         return "invalid", f"unreachable in the check placement ({fail.stage}: {fail.reason})"
     _hold(ctl, q, 1.0, cfg.close_steps)
+    art = get_model(model).articulation
+    if grasp.frame and art is not None and art.kind == "slide":
+        return _pull(scene, planner, ctl, q, rng, cfg)
+    return _lift(scene, planner, ctl, q, rng, cfg)
+
+
+def _lift(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,
+          rng: np.random.Generator, cfg: GraspCheckConfig) -> tuple[str, str]:
+    """Lift the closed gripper straight up by ``lift``, hold, and judge rise, tilt and finger contact."""
     z0 = scene.object_pose("object")[0][2]
     tcp = Pose.from_pos_mat(*scene.tcp_pose())
     held = Attachment("object", (tcp.inverse() @ Pose.from_pos_mat(*scene.object_pose("object"))).matrix())
@@ -125,4 +162,28 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     detail = (f"lifted {rise * 100:.1f} of {cfg.lift * 100:.0f} cm, tilt {tilt:.1f}°, "
               f"fingers touch: {touching}")
     ok = rise >= cfg.min_lift_fraction * cfg.lift and touching and tilt <= cfg.max_tilt_deg
+    return ("valid" if ok else "invalid"), detail
+
+
+def _pull(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,
+          rng: np.random.Generator, cfg: GraspCheckConfig) -> tuple[str, str]:
+    """Pull the closed gripper straight along the drawer's slide axis by ``pull``, hold, and judge how far
+    the slide joint opened and finger contact."""
+    m, d = scene.model, scene.data
+    adr = scene.articulation_qpos_adr("object")
+    joint = int(np.flatnonzero(m.jnt_qposadr == adr)[0])
+    axis = d.xmat[m.jnt_bodyid[joint]].reshape(3, 3) @ m.jnt_axis[joint]  # world direction of +q
+    q0 = float(d.qpos[adr])
+    planner.sync(d)
+    start = planner.fk(q)
+    try:
+        q = _run(ctl, q, planner.linear(q, Pose(start.pos + axis * cfg.pull, start.quat), rng,
+                                        allowed=AllowedContacts((("hand", "object"),))).q, 1.0)
+    except MotionFailure as fail:
+        return "invalid", f"cannot pull ({fail.stage}: {fail.reason})"
+    _hold(ctl, q, 1.0, cfg.hold_steps)
+    opened = float(d.qpos[adr]) - q0
+    touching = _fingers_touch(scene)
+    detail = f"drawer opened {opened * 100:.1f} of {cfg.pull * 100:.0f} cm, fingers touch: {touching}"
+    ok = opened >= cfg.min_pull_fraction * cfg.pull and touching
     return ("valid" if ok else "invalid"), detail

@@ -1,10 +1,14 @@
 """``mgdata grasps list | generate | validate``: inspect, create and check the grasp database.
 
 * ``generate MODEL…``: candidate grasps from each model's geometry (``category/model`` or glob patterns such
-  as ``'jar/*'``); replaces the model's *generated* grasps and keeps annotated ones.
+  as ``'jar/*'``); replaces the model's *generated* grasps (a candidate whose id and pose are unchanged keeps
+  its validation result; ``validate --all`` re-checks) and keeps annotated ones; rewrites only the files of
+  the categories named.
 * ``validate [MODEL…]``: run the in-simulation check on unvalidated grasps (``--all``: every grasp) and store
   each result; the file is rewritten atomically after every model, so an interrupted run keeps its progress.
 * ``list [MODEL…]``: grasp counts per model and validation status.
+* ``report [CATEGORY…]``: per category (default: all but particle sets), objects covered (at least one
+  valid grasp) of the models in the asset library, and grasps valid / checked / total.
 """
 
 from __future__ import annotations
@@ -24,6 +28,8 @@ from mgdata.paths import grasps_dir
 Dir = Annotated[Path | None, typer.Option("--dir", help="Grasp DB folder (default: the project's grasps/).")]
 Models = Annotated[list[str] | None, typer.Argument(help="Models or globs, e.g. 'jar/*' (default: all).")]
 All = Annotated[bool, typer.Option("--all", help="Re-check grasps that already have a result.")]
+GraspIds = Annotated[list[str] | None, typer.Option(
+    "--grasp", help="Only grasps whose id matches this glob, e.g. 'side_*_r1' (repeatable; default: all).")]
 
 
 def _db_dir(directory: Path | None, create: bool = False) -> Path:
@@ -43,6 +49,17 @@ def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
     if not found:
         raise GraspDBError(f"{' '.join(patterns)!r} matches no {what}")
     return found
+
+
+def _pose_key(g: Grasp) -> tuple:
+    """A grasp's id, frame and pose as stored in the file (rounded like ``db.write_file``)."""
+    return g.id, g.frame, tuple(round(v, 6) for v in g.pos), tuple(round(v, 8) for v in g.quat)
+
+
+def _keep_result(g: Grasp, checked: dict[tuple, Grasp]) -> Grasp:
+    """``g`` with the validation result of the stored generated grasp of the same id and pose, if any."""
+    old = checked.get(_pose_key(g))
+    return g if old is None else g.with_status(old.status, old.detail)
 
 
 def register(app: typer.Typer) -> None:
@@ -66,10 +83,44 @@ def register(app: typer.Typer) -> None:
             table.add_row(key, str(len(gs)), *map(str, counts), ", ".join(sorted({g.source for g in gs})))
         plain_console().print(table)
 
+    @grasps.command("report")
+    def report(categories: Annotated[list[str] | None, typer.Argument(
+                   help="Categories (default: every category of the asset library but particle sets, "
+                        "i.e. dust and liquid).")] = None,
+               directory: Dir = None) -> None:
+        """Coverage per category: objects with a valid grasp / models in the library; grasps valid /
+        checked / total.
+
+        Example: mgdata grasps report cup bowl cabinet
+        """
+        from mgdata.sim.assets import categories as library_categories
+        from mgdata.sim.assets import get_model, model_names
+
+        db = GraspDB.load_dir(_db_dir(directory))
+        known = library_categories()
+        wanted = categories or [c for c in known if get_model(model_names(c)[0]).particles is None]
+        unknown = [c for c in wanted if c not in known]
+        if unknown:
+            raise GraspDBError(f"unknown object category {unknown[0]!r}; known: {', '.join(known)}")
+        table = Table("category", "objects covered", "grasps valid", "checked", "total")
+        sums = [0, 0, 0, 0, 0]
+        for category in wanted:
+            names = model_names(category)
+            grasps = {n: db.objects.get(n, ()) for n in names}
+            row = [sum(any(g.status == "valid" for g in gs) for gs in grasps.values()), len(names),
+                   sum(g.status == "valid" for gs in grasps.values() for g in gs),
+                   sum(g.status != "unvalidated" for gs in grasps.values() for g in gs),
+                   sum(len(gs) for gs in grasps.values())]
+            sums = [a + b for a, b in zip(sums, row, strict=True)]
+            table.add_row(category, f"{row[0]} / {row[1]}", *map(str, row[2:]))
+        table.add_row("all", f"{sums[0]} / {sums[1]}", *map(str, sums[2:]))
+        plain_console().print(table)
+
     @grasps.command("generate")
     def generate(models: Annotated[list[str], typer.Argument(help="Models or glob patterns, e.g. 'jar/*'.")],
                  directory: Dir = None) -> None:
-        """Generate candidate grasps from geometry (replaces generated grasps, keeps annotated ones).
+        """Generate candidate grasps from geometry (replaces generated grasps, keeping the validation result
+        of any whose pose is unchanged; keeps annotated ones).
 
         Example: mgdata grasps generate 'jar/hinged_0*'
         """
@@ -80,23 +131,28 @@ def register(app: typer.Typer) -> None:
         root = _db_dir(directory, create=True)
         cand_cfg = load_grasp_config().candidates
         db = GraspDB.load_dir(root)
-        for key in _match(models, model_names(), "object model"):
-            kept = [g for g in db.objects.get(key, ()) if g.source != "generated"]
+        keys = _match(models, model_names(), "object model")
+        for key in keys:
+            old = db.objects.get(key, ())
+            kept = [g for g in old if g.source != "generated"]
             ids = {g.id for g in kept}
-            new = [g for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
+            checked = {_pose_key(g): g for g in old if g.source == "generated"}
+            new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
             if not kept and not new:
                 typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
                 continue
             db = db.with_object(key, kept + new)
             typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
-        for path in db.write_dir(root):
+        for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
             typer.echo(f"wrote {path}")
 
     @grasps.command("validate")
-    def validate(models: Models = None, all_: All = False, directory: Dir = None) -> None:
-        """Check grasps in simulation (reach, close, lift) and record valid/invalid with the measurement.
+    def validate(models: Models = None, all_: All = False, grasp_ids: GraspIds = None,
+                 directory: Dir = None) -> None:
+        """Check grasps in simulation (reach, close, then lift, or pull a drawer open) and record
+        valid/invalid with the measurement. Only the files of the models checked are rewritten.
 
-        Example: mgdata grasps validate 'jar/*' --all
+        Example: mgdata grasps validate 'cup/*' --grasp 'side_*_r1'
         """
         from mgdata.grasps.check import check_grasp
         from mgdata.grasps.config import load_grasp_config
@@ -108,13 +164,14 @@ def register(app: typer.Typer) -> None:
         for key in keys:
             updated: list[Grasp] = []
             for g in db.grasps(key):
-                if g.status == "unvalidated" or all_:
+                chosen = not grasp_ids or any(fnmatch.fnmatchcase(g.id, p) for p in grasp_ids)
+                if chosen and (g.status == "unvalidated" or all_):
                     status, detail = check_grasp(key, g, settings.check)
                     g = g.with_status(status, detail)
                     typer.echo(f"{key} {g.id}: {status} ({detail})")
                 updated.append(g)
             db = db.with_object(key, updated)
-            db.write_dir(root)
+            db.write_dir(root, categories=[key.split("/", 1)[0]])
         valid = sum(g.status == "valid" for k in keys for g in db.grasps(k))
         total = sum(len(db.grasps(k)) for k in keys)
         typer.echo(f"{valid} of {total} grasps valid over {len(keys)} model(s)")

@@ -7,7 +7,11 @@ frame (origin and axes as the asset library documents them):
 * ``pos``: position in metres; ``quat_wxyz``: orientation as a unit quaternion, scalar first.
 * The gripper approaches along its **+Z** axis (palm towards fingertips) and the fingers close along its
   **±Y** axis (the Panda finger joints slide along the hand's Y axis).
-* At run time the world TCP target is ``T_world_object @ T_object_grasp``.
+* ``frame`` (optional): the body of the object the pose is expressed in, by its local name (``"drawer"``
+  for a cabinet's drawer handle, so the grasp moves with the drawer); absent or ``""`` means the object's
+  root frame.
+* At run time the world TCP target is ``T_world_frame @ T_frame_grasp``: :meth:`Grasp.world_matrix` reads
+  ``T_world_frame`` from a live ``MjData``.
 
 ``grasps/schema.json`` is the same format as a JSON Schema for editors and external tools; this module is the
 validator the toolkit uses (one :class:`GraspDBError` naming the file, the key path and what was expected).
@@ -42,6 +46,9 @@ CONVENTION = (
     "pose of the Panda TCP site in the object's local frame; pos in metres, quat_wxyz scalar-first unit "
     "quaternion; approach = gripper +Z, fingers close along gripper ±Y; world target = T_world_object @ pose"
 )
+CONVENTION_FRAMES = CONVENTION + (
+    "; a grasp with 'frame' is in that body of the object instead (world target = T_world_frame @ pose)"
+)
 
 
 @dataclass(frozen=True)
@@ -56,6 +63,7 @@ class Grasp:
         source: ``generated`` (from geometry) or ``annotated`` (by a person).
         status: ``unvalidated``, ``valid`` or ``invalid`` (set by ``mgdata grasps validate``).
         detail: what the last validation measured or why it failed.
+        frame: local name of the object body the pose is in (``"drawer"``); ``""`` is the object's root.
     """
 
     id: str
@@ -65,6 +73,7 @@ class Grasp:
     source: str
     status: str = "unvalidated"
     detail: str = ""
+    frame: str = ""
 
     def matrix(self) -> np.ndarray:
         """The 4×4 homogeneous transform object → TCP."""
@@ -74,6 +83,24 @@ class Grasp:
         out[:3, :3] = rot.reshape(3, 3)
         out[:3, 3] = self.pos
         return out
+
+    def body_name(self, instance: str) -> str:
+        """Scene body name of the grasp's frame for object instance ``instance`` (``"cab/drawer"``)."""
+        return f"{instance}/{self.frame}" if self.frame else instance
+
+    def world_matrix(self, model: mujoco.MjModel, data: mujoco.MjData, instance: str) -> np.ndarray:
+        """The 4×4 world TCP target of this grasp on object instance ``instance`` in a live scene
+        (``data`` after ``mj_forward``): ``T_world_frame @ matrix()``. A drawer-handle grasp follows the
+        drawer wherever its joint is."""
+        try:
+            body = model.body(self.body_name(instance)).id
+        except KeyError:
+            name = self.body_name(instance)
+            raise GraspDBError(f"grasp {self.id!r}: no body {name!r} in the scene") from None
+        frame = np.eye(4)
+        frame[:3, :3] = data.xmat[body].reshape(3, 3)
+        frame[:3, 3] = data.xpos[body]
+        return frame @ self.matrix()
 
     def with_status(self, status: str, detail: str = "") -> Grasp:
         if status not in STATUSES:
@@ -128,12 +155,16 @@ class GraspDB:
             return cls({})
         return cls.load(sorted(p for p in directory.glob("*.json") if p.name != "schema.json"))
 
-    def write_dir(self, directory: Path) -> list[Path]:
-        """Write one file per category atomically; returns the paths written."""
+    def write_dir(self, directory: Path, categories: Iterable[str] | None = None) -> list[Path]:
+        """Write one file per category atomically (only ``categories``, if given: a run that changed one
+        category leaves the others' files alone); returns the paths written."""
         directory = Path(directory)
+        wanted = None if categories is None else set(categories)
         by_category: dict[str, dict[str, tuple[Grasp, ...]]] = {}
         for key in sorted(self.objects):
-            by_category.setdefault(key.split("/", 1)[0], {})[key] = self.objects[key]
+            category = key.split("/", 1)[0]
+            if wanted is None or category in wanted:
+                by_category.setdefault(category, {})[key] = self.objects[key]
         written = []
         for category, objects in by_category.items():
             path = directory / f"{category}.json"
@@ -154,23 +185,28 @@ def approach_hint(quat: Iterable[float]) -> str:
 
 def write_file(path: Path, objects: Mapping[str, Iterable[Grasp]]) -> None:
     """Write one category file atomically: readers see the old file or the new one, never a partial one."""
+    objects = {key: tuple(objects[key]) for key in objects}
+    framed = any(g.frame for gs in objects.values() for g in gs)
     doc = {
         "schema_version": SCHEMA_VERSION,
-        "convention": CONVENTION,
+        "convention": CONVENTION_FRAMES if framed else CONVENTION,
         "objects": {key: {"grasps": [_grasp_to_json(g) for g in objects[key]]} for key in sorted(objects)},
     }
     write_text_atomic(Path(path), json.dumps(doc, indent=2) + "\n")
 
 
 def _grasp_to_json(g: Grasp) -> dict[str, Any]:
-    return {
+    out: dict[str, Any] = {
         "id": g.id,
         "pos": [round(v, 6) for v in g.pos],
         "quat_wxyz": [round(v, 8) for v in g.quat],
         "approach": g.approach,
         "source": g.source,
-        "validation": {"status": g.status, "detail": g.detail},
     }
+    if g.frame:  # written only when set: files without frames stay as they were
+        out["frame"] = g.frame
+    out["validation"] = {"status": g.status, "detail": g.detail}
+    return out
 
 
 def _load_file(path: Path) -> dict[str, tuple[Grasp, ...]]:
@@ -233,7 +269,11 @@ def _parse_grasp(raw: Any, where: str) -> Grasp:
     detail = validation.get("detail", "")
     if not isinstance(detail, str):
         raise GraspDBError(f"{where}.validation.detail: expected a string, got {detail!r}")
-    return Grasp(gid, pos, quat, approach, source, validation["status"], detail)  # type: ignore[arg-type]
+    frame = raw.get("frame", "")
+    if not isinstance(frame, str) or "/" in frame:
+        raise GraspDBError(f"{where}.frame: expected a body's local name without '/', got {frame!r}")
+    return Grasp(gid, pos, quat, approach, source, validation["status"], detail,  # type: ignore[arg-type]
+                 frame)
 
 
 def _numbers(raw: Any, n: int, where: str) -> tuple[float, ...]:

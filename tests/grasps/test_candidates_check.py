@@ -34,7 +34,7 @@ def test_top_grasps_only_for_narrow_objects() -> None:
     for name in model_names("box")[:4]:
         model = get_model(name)
         tops = [g for g in candidates(model, cfg) if g.approach == "top_down"]
-        narrow = min(model.size[:2]) + cfg.finger_clearance <= MAX_OPENING
+        narrow = min(model.size[:2]) + cfg.top_clearance <= MAX_OPENING
         assert bool(tops) == narrow
         for g in tops:
             assert np.allclose(g.matrix()[:3, 2], [0, 0, -1])
@@ -46,7 +46,30 @@ def test_check_accepts_a_good_grasp_and_rejects_a_bad_one() -> None:
     status, detail = check_grasp(model, good, GraspCheckConfig())
     assert status == "valid", detail
     assert "lifted" in detail
-    # the same pose 10 cm higher, above the jar, closes on air
-    high = Grasp("too_high", (good.pos[0], good.pos[1], good.pos[2] + 0.10), good.quat, "side", "annotated")
+    # the same pose 8 cm higher, above the jar, closes on air
+    high = Grasp("too_high", (good.pos[0], good.pos[1], good.pos[2] + 0.08), good.quat, "side", "annotated")
     status, detail = check_grasp(model, high, GraspCheckConfig())
     assert status == "invalid" and "fingers touch: False" in detail
+
+
+def test_drawer_check_pulls_the_drawer_open_and_rejects_a_grasp_beside_the_handle() -> None:
+    model = "cabinet/drawer_01"
+    good = candidates(get_model(model), CandidateConfig())[1]
+    assert good.frame == "drawer"
+    status, detail = check_grasp(model, good, GraspCheckConfig())
+    assert status == "valid", detail
+    opened = float(detail.split("opened ")[1].split(" of")[0])
+    assert opened >= 0.8 * GraspCheckConfig().pull * 100
+    # 6 cm beside the bar, fingers closing on air: the pull leaves the drawer where it was
+    beside = Grasp("beside", (good.pos[0], good.pos[1], good.pos[2] + 0.06), good.quat, "side", "annotated",
+                   frame="drawer")
+    status, detail = check_grasp(model, beside, GraspCheckConfig())
+    assert status == "invalid" and "fingers touch: False" in detail, detail
+
+
+def test_rim_pinch_lifts_a_tub_level() -> None:
+    model = "container/tub_03"
+    pinch = next(g for g in candidates(get_model(model), CandidateConfig()) if g.id == "rim_px_r1")
+    status, detail = check_grasp(model, pinch, GraspCheckConfig())
+    assert status == "valid", detail
+    assert check_grasp(model, pinch, GraspCheckConfig()) == (status, detail)  # deterministic

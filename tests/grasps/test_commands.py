@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
-from mgdata.grasps.db import GraspDB
+from mgdata.grasps.db import Grasp, GraspDB
+from mgdata.sim.assets import model_names
 
 MGDATA = str(Path(sys.executable).parent / "mgdata")
 
@@ -32,13 +34,18 @@ def test_generate_validate_list(tmp_path: Path) -> None:
     assert len({g.id.rsplit("_", 1)[0] for g in checked if g.status == "valid"}) >= 11
     listed = _run("list", "--dir", str(tmp_path))
     assert "jar/hinged_05" in listed.stdout and "24" in listed.stdout
-    # regenerating keeps annotated grasps and replaces generated ones (and their results)
+    # regenerating keeps annotated grasps and replaces generated ones; a generated grasp whose stored pose is
+    # the generator's keeps its result, one whose pose differs comes back at the generator's pose, unchecked
     annotated = checked[0].__class__("mine", (0.0, 0.0, 0.06), (1.0, 0.0, 0.0, 0.0), "side", "annotated")
-    GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, *checked]).write_dir(tmp_path)
+    moved = replace(checked[0], pos=(checked[0].pos[0], checked[0].pos[1], checked[0].pos[2] + 0.01))
+    edited = GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, moved, *checked[1:]])
+    edited.write_dir(tmp_path)
     assert _run("generate", "jar/hinged_05", "--dir", str(tmp_path)).returncode == 0
     again = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
     assert again[0].id == "mine" and len(again) == 25
-    assert all(g.status == "unvalidated" for g in again)
+    assert (again[1].id, again[1].pos, again[1].status) == (checked[0].id, checked[0].pos, "unvalidated")
+    result = [(g.id, g.status, g.detail) for g in again[2:]]
+    assert result == [(g.id, g.status, g.detail) for g in checked[1:]]
 
 
 def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:
@@ -48,3 +55,23 @@ def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:
     (tmp_path / "jar.json").write_text("{oops")
     proc = _run("list", "--dir", str(tmp_path))
     assert proc.returncode == 2 and "jar.json: not valid JSON" in proc.stderr
+
+
+def test_report_counts_coverage_per_category(tmp_path: Path) -> None:
+    def grasp(gid: str, status: str) -> Grasp:
+        return Grasp(gid, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0, 0.0), "top_down", "generated").with_status(status)
+
+    db = GraspDB({}).with_object("box/carton_00", [grasp("a", "valid"), grasp("b", "invalid")])
+    db = db.with_object("box/carton_01", [grasp("a", "invalid"), grasp("b", "unvalidated")])
+    db.write_dir(tmp_path)
+    proc = _run("report", "box", "bowl", "--dir", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    rows = {line.split("│")[1].strip(): [c.strip() for c in line.split("│")[2:-1]]
+            for line in proc.stdout.splitlines() if line.startswith("│")}
+    n_box, n_bowl = len(model_names("box")), len(model_names("bowl"))
+    assert rows["box"] == [f"1 / {n_box}", "1", "3", "4"]
+    assert rows["bowl"] == [f"0 / {n_bowl}", "0", "0", "0"]
+    assert rows["all"] == [f"1 / {n_box + n_bowl}", "1", "3", "4"]
+    bad = _run("report", "bowls", "--dir", str(tmp_path))
+    assert bad.returncode == 2 and "unknown object category 'bowls'" in bad.stderr
+    assert "Traceback" not in bad.stderr

@@ -156,3 +156,21 @@ def test_any_pose_round_trips(tmp_path_factory: pytest.TempPathFactory, pos, q) 
     GraspDB({}).with_object("jar/hinged_00", [g]).write_dir(d)
     back = GraspDB.load_dir(d).grasps("jar/hinged_00")[0]
     assert np.allclose(back.matrix(), g.matrix(), atol=1e-5)
+
+
+def test_frame_round_trips_and_files_without_frames_are_unchanged(tmp_path: Path) -> None:
+    # the jar's shipped file is written byte for byte as it is (no 'frame' key where none is set)
+    shipped = grasps_dir() / "jar.json"
+    GraspDB.load([shipped]).write_dir(tmp_path)
+    assert (tmp_path / "jar.json").read_bytes() == shipped.read_bytes()
+    drawer = _grasp("handle_r0", frame="drawer")
+    GraspDB({}).with_object("cabinet/drawer_00", [drawer, _grasp("root")]).write_dir(tmp_path)
+    raw = json.loads((tmp_path / "cabinet.json").read_text())["objects"]["cabinet/drawer_00"]["grasps"]
+    assert raw[0]["frame"] == "drawer" and "frame" not in raw[1]
+    back = GraspDB.load_dir(tmp_path).grasps("cabinet/drawer_00")
+    assert [g.frame for g in back] == ["drawer", ""]
+    raw[0]["frame"] = "cab/drawer"
+    doc = {"schema_version": 1, "objects": {"cabinet/drawer_00": {"grasps": raw}}}
+    _write_raw(tmp_path / "cabinet.json", doc)
+    with pytest.raises(GraspDBError, match=r"grasps\[0\]\.frame"):
+        GraspDB.load_dir(tmp_path)

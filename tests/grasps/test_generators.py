@@ -1,0 +1,123 @@
+"""Each candidate generator on a real model of its category, judged from outside with raw MuJoCo: rays
+between the two fingertip positions (computed here from the TCP pose) must cross the object where the
+grasp means to squeeze it. And a drawer-handle grasp moves with the drawer."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
+from mgdata.grasps.check import GraspCheckConfig, check_placement
+from mgdata.grasps.db import Grasp
+from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.spec import SafetySpec
+from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
+
+COLLIDING_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # group 0 (both) and 3 (collision)
+
+
+def _scene(model: str, grasp: Grasp) -> Scene:
+    pos, yaw = check_placement(grasp, GraspCheckConfig(), model)
+    task = TaskSpec(family="t", task_id=0, condition="base", prompt="", seed=0,
+                    objects=(ObjectPlacement("object", model, pos, yaw),), safety=SafetySpec("t", (), ()))
+    return build_scene(task)
+
+
+def _hit(scene: Scene, start: np.ndarray, direction: np.ndarray) -> float:
+    """Distance (m) along a unit ray to the first colliding object geom, inf if none."""
+    geom = np.array([-1], dtype=np.int32)
+    dist = mujoco.mj_ray(scene.model, scene.data, start, direction, COLLIDING_GROUPS, 1, -1, geom)
+    if geom[0] < 0 or geom[0] not in set(scene.object_geom_ids("object").tolist()):
+        return np.inf
+    return dist
+
+
+def _fingertip_gap(scene: Scene, grasp: Grasp) -> tuple[float, float]:
+    """(material between the open fingertips along the closing line, free gap from each fingertip to it):
+    rays from each open fingertip towards the other, along two lines 4 mm either side of the pads' centre
+    (the pads are 17 mm wide), the line that crosses most material counts."""
+    world = grasp.world_matrix(scene.model, scene.data, "object")
+    tcp, across, closing = world[:3, 3], world[:3, 0], world[:3, 1]
+    best = (-np.inf, 0.0)
+    for offset in (-0.004, 0.004):
+        centre = tcp + across * offset
+        left, right = centre + closing * MAX_OPENING / 2, centre - closing * MAX_OPENING / 2
+        a, b = _hit(scene, left, -closing), _hit(scene, right, closing)
+        assert a < MAX_OPENING and b < MAX_OPENING, grasp.id  # each ray meets the object before the other tip
+        best = max(best, (MAX_OPENING - a - b, min(a, b)))
+    return best
+
+
+@pytest.mark.parametrize("model", ["cup/tumbler_03", "bottle/round_02"])
+def test_side_grasps_straddle_the_object_with_room_to_spare(model: str) -> None:
+    cfg = CandidateConfig()
+    sides = [g for g in candidates(get_model(model), cfg) if g.id.startswith("side_")]
+    assert len(sides) == 2 * cfg.angles
+    for g in sides[::5]:
+        scene = _scene(model, g)
+        width, free = _fingertip_gap(scene, g)
+        assert 0.03 < width < MAX_OPENING - cfg.finger_clearance + 1e-3, (g.id, width)  # the object, narrower
+        assert free > 0.003, g.id  # both fingertips start outside it
+
+
+@pytest.mark.parametrize("model", ["bowl/round_05", "plate/flat_03", "mug/handled_02", "teacup/flared_01",
+                                   "container/tub_04", "tray/flat_02"])
+def test_rim_pinches_straddle_the_wall(model: str) -> None:
+    obj = get_model(model)
+    rims = [g for g in candidates(obj, CandidateConfig()) if g.id.startswith("rim_")]
+    assert rims and all(g.approach == "top_down" for g in rims)
+    for g in rims[::3]:
+        scene = _scene(model, g)
+        wall, free = _fingertip_gap(scene, g)
+        # the closing line crosses one wall only (fingers on opposite sides of it): material between the
+        # fingertips, at most about a wall's thickness (less where the line passes the seam of two convex wall
+        # pieces, up to ~1 cm where a flared wall is crossed obliquely)
+        assert 1e-4 < wall < 2.5 * obj.geometry["wall"] + 0.004, (g.id, wall)
+        assert free > 0.01, g.id
+        tips = g.world_matrix(scene.model, scene.data, "object")[:3, 3] + \
+            g.world_matrix(scene.model, scene.data, "object")[:3, 2] * CandidateConfig().fingertip_reach
+        assert tips[2] > 0.0  # the fingertips stay above the table
+
+
+def test_handle_and_knob_and_top_grasps_close_on_something_narrow() -> None:
+    for model, prefix in (("mug/handled_05", "handle_"), ("teacup/flared_04", "handle_"),
+                          ("lid/tub_02", "knob_"), ("box/carton_01", "top_"), ("sponge/block_03", "top_")):
+        found = [g for g in candidates(get_model(model), CandidateConfig()) if g.id.startswith(prefix)]
+        assert found, model
+        for g in found[::2]:  # one roll of each pose
+            scene = _scene(model, g)
+            width, free = _fingertip_gap(scene, g)
+            # a handle's bar is 1 cm thick; knobs, boxes and sponges leave room to the open fingers
+            assert 0.005 < width < MAX_OPENING - 0.01 and free > 0.003, (model, g.id, width, free)
+
+
+def test_board_lying_flat_gets_no_candidates() -> None:
+    assert all(not candidates(get_model(n), CandidateConfig()) for n in model_names("board"))
+
+
+def test_drawer_handle_grasp_is_in_the_drawer_frame_and_moves_with_it() -> None:
+    model = "cabinet/drawer_02"
+    grasps = candidates(get_model(model), CandidateConfig())
+    assert [g.id for g in grasps] == ["handle_r0", "handle_r1"] and all(g.frame == "drawer" for g in grasps)
+    g = grasps[0]
+    scene = _scene(model, g)
+    m, d = scene.model, scene.data
+    handle = m.geom("object/handle").id
+    before = g.world_matrix(m, d, "object")
+    # closed: TCP on the bar's axis, approach towards the cabinet (opposite the slide), fingers across the bar
+    assert np.linalg.norm(before[:3, 3] - d.geom_xpos[handle]) < 1e-6
+    bar_axis = d.geom_xmat[handle].reshape(3, 3)[:, 2]
+    assert abs(before[:3, 1] @ bar_axis) < 1e-9 and abs(before[:3, 2] @ bar_axis) < 1e-9
+    joint = m.joint("object/drawer_slide")
+    slide = d.xmat[joint.bodyid[0]].reshape(3, 3) @ joint.axis
+    assert before[:3, 2] @ slide < -0.99
+    # open the drawer 12 cm in raw MuJoCo: the grasp's world pose follows the handle
+    d.qpos[joint.qposadr[0]] = 0.12
+    mujoco.mj_forward(m, d)
+    after = g.world_matrix(m, d, "object")
+    assert np.allclose(after[:3, 3] - before[:3, 3], 0.12 * slide, atol=1e-9)
+    assert np.allclose(after[:3, 3], d.geom_xpos[handle], atol=1e-9)
+    assert np.allclose(after[:3, :3], before[:3, :3], atol=1e-12)
