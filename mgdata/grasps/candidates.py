@@ -42,10 +42,11 @@ import numpy as np
 
 from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.sim.assets.model import ObjectModel
+from mgdata.sim.robot import FINGERTIP_REACH, GRIPPER_MAX_OPENING, PALM_DEPTH
 
 Vec3 = tuple[float, float, float]
 
-MAX_OPENING = 0.08
+MAX_OPENING = GRIPPER_MAX_OPENING
 """The Panda hand's finger gap when open (m)."""
 DOWN = np.array([0.0, 0.0, -1.0])
 
@@ -55,14 +56,12 @@ class CandidateConfig:
     """Tunables of the generator (``recipes/grasps.toml`` ``[candidates]``)."""
 
     angles: int = 12  # side-grasp directions around the axis
-    palm_depth: float = 0.0325  # m from the TCP back to the palm, along the approach
     palm_clearance: float = 0.008  # m kept between the palm and the object
     finger_clearance: float = 0.012  # m of opening to spare around the grasped width
     top_depth: float = 0.02  # m below the object's top for top grasps (fingertips overlap the object)
     top_clearance: float = 0.006  # m of opening to spare around a top grasp's width (straight down)
     min_side_height: float = 0.055  # m above the object's base: lower side grasps put the wrist on the table
     side_top_clearance: float = 0.015  # m kept between a side grasp and the object's top (rim, lid)
-    fingertip_reach: float = 0.0085  # m from the TCP to the fingertips, along the approach (Panda hand)
     tip_clearance: float = 0.002  # m kept between a fingertip and the surface below it
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
@@ -115,7 +114,7 @@ def side_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     radius = _side_radius(model, height)
     if radius is None or 2.0 * radius + cfg.finger_clearance > MAX_OPENING:
         return []
-    back = max(0.0, radius + cfg.palm_clearance - cfg.palm_depth)
+    back = max(0.0, radius + cfg.palm_clearance - PALM_DEPTH)
     out = []
     for k in range(cfg.angles):
         phi = 2.0 * math.pi * k / cfg.angles
@@ -151,7 +150,7 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
                                           ("rim_nx", (-1.0, 0.0, 0.0), hx), ("rim_ny", (0.0, -1.0, 0.0), hy))]
     else:
         return []
-    z = max(height - cfg.rim_depth, bottom + cfg.fingertip_reach + cfg.tip_clearance)
+    z = max(height - cfg.rim_depth, bottom + FINGERTIP_REACH + cfg.tip_clearance)
     out = []
     for name, xy, closing in sites:
         out += _two_rolls(name, xy + np.array([0.0, 0.0, z]), DOWN, closing)
@@ -195,7 +194,7 @@ def knob_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
         return []
     hx, hy, hz = knob.size[:3]
     centre = np.array(knob.pos, dtype=float)
-    z = max(centre[2], centre[2] - hz + cfg.fingertip_reach + cfg.tip_clearance)
+    z = max(centre[2], centre[2] - hz + FINGERTIP_REACH + cfg.tip_clearance)
     out = []
     for name, axis, half in (("knob_x", (1.0, 0.0, 0.0), hx), ("knob_y", (0.0, 1.0, 0.0), hy)):
         if 2.0 * half + cfg.finger_clearance <= MAX_OPENING:

@@ -12,6 +12,7 @@ from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
 from mgdata.grasps.check import GraspCheckConfig, check_placement
 from mgdata.grasps.db import Grasp
 from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.robot import FINGERTIP_REACH
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import SafetySpec
 from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
@@ -78,7 +79,7 @@ def test_rim_pinches_straddle_the_wall(model: str) -> None:
         assert 1e-4 < wall < 2.5 * obj.geometry["wall"] + 0.004, (g.id, wall)
         assert free > 0.01, g.id
         tips = g.world_matrix(scene.model, scene.data, "object")[:3, 3] + \
-            g.world_matrix(scene.model, scene.data, "object")[:3, 2] * CandidateConfig().fingertip_reach
+            g.world_matrix(scene.model, scene.data, "object")[:3, 2] * FINGERTIP_REACH
         assert tips[2] > 0.0  # the fingertips stay above the table
 
 
