@@ -26,7 +26,7 @@ from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import TaskSpec
 
 SHEET_CAMERAS = ("left", "right")
-SHEET_SIZE = 224
+SHEET_SIZE = 192
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,8 @@ def write_sheet(tasks: list[TaskSpec], path: Path, *, cameras: tuple[str, ...] =
             images = rig.render()
         row = contact_sheet({f"task {task.task_id} {c}": images[c] for c in cameras})
         rows.append(row)
-    per_column = int(np.ceil(len(rows) / 2)) if len(rows) > 6 else len(rows)
+    columns_wanted = 1 if len(rows) <= 6 else 2 if len(rows) <= 12 else 3
+    per_column = int(np.ceil(len(rows) / columns_wanted))
     blank = np.full_like(rows[0], 255)
     columns = [rows[i:i + per_column] for i in range(0, len(rows), per_column)]
     columns = [np.concatenate(c + [blank] * (per_column - len(c)), axis=0) for c in columns]
