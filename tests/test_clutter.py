@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import dataclasses
 
-import mujoco
 import numpy as np
 import pytest
+import rawdata
 
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
@@ -56,22 +56,10 @@ class _Probe(JointController):
         self.tilts.append([float(np.degrees(np.arccos(np.clip(d.xmat[b][8], -1.0, 1.0))))
                            for b in self.obstacles])
         if self.particles and self.container is not None:
-            lo, hi = _local_box(m, d, self.container)
+            lo, hi = rawdata.local_box(m, d, self.container)
             local = (d.xpos[self.particles] - d.xpos[self.container]) @ d.xmat[self.container].reshape(3, 3)
             ok = np.all((local >= lo - 0.005) & (local <= hi + np.array([0.005, 0.005, 0.03])), axis=1)
             self.inside.append(float(ok.mean()))
-
-
-def _local_box(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
-    rot, corners = d.xmat[body].reshape(3, 3), []
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-    for g in np.flatnonzero(m.geom_bodyid == body):
-        if m.geom_contype[g] or m.geom_conaffinity[g]:
-            c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-            world = d.geom_xpos[g] + (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T
-            corners.append((world - d.xpos[body]) @ rot)
-    local = np.concatenate(corners)
-    return local.min(0), local.max(0)
 
 
 # --- layout -------------------------------------------------------------------------------------------------

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-import pyarrow.parquet as pq
 import pytest
+import rawdata
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
@@ -121,10 +121,10 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
     upright = [(p["subjects"][0], p["params"]["max_tilt_deg"]) for p in spec["propositions"].values()
                if p["evaluator"] == "upright"]
     info = json.loads((root / "meta" / "info.json").read_text())
-    for episode in _episodes(root):
-        m = _model(root, episode["mgdata/scene"])
+    for episode in rawdata.episodes(root):
+        m = rawdata.scene_model(root, episode["mgdata/scene"])
         d = mujoco.MjData(m)
-        frames = _frames(root, info, episode)
+        frames = rawdata.frames(root, info, episode, ["sim.physics_state", "safety.violated"])
         assert episode["mgdata/kept"] and not any(any(v) for v in frames["safety.violated"])
         objects = [m.body(b).name for b in range(m.nbody) if m.body_parentid[b] == 0 and m.body_jntnum[b]
                    and "/" not in m.body(b).name]
@@ -144,7 +144,7 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
                 assert _fraction_inside(m, d, liquid, picked) >= 0.85, (t, liquid)
             if t >= len(frames["sim.physics_state"]) - hold:
                 body = m.body(picked).id
-                centres.append(_bbox_centre(m, d, body))
+                centres.append(rawdata.box_centre(m, d, body))
                 fingers = [_touching(m, d, f, body) for f in ("left_finger", "right_finger")]
                 assert all(fingers), (t, "both fingers on the object")
                 assert not _touching(m, d, "table", body), (t, "the table does not support it")
@@ -193,57 +193,8 @@ class _Planter(JointController):
             mujoco.mj_forward(m, d)
 
 
-# --- raw reading of a dataset (pyarrow + mujoco only) -------------------------------------------------------
-def _episodes(root: Path) -> list[dict]:
-    files = sorted(root.glob("meta/episodes/*/*.parquet"))
-    return [row for path in files for row in pq.read_table(path).to_pylist()]
-
-
-def _model(root: Path, key: str) -> mujoco.MjModel:
-    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
-    row = scenes[key]
-    mjb = np.frombuffer(row["data"], np.uint8)
-    if row["base"] is not None:
-        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
-    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
-
-
-def _frames(root: Path, info: dict, episode: dict) -> dict[str, list]:
-    path = root / info["data_path"].format(chunk_index=episode["data/chunk_index"],
-                                           file_index=episode["data/file_index"])
-    columns = ["episode_index", "frame_index", "sim.physics_state", "safety.violated"]
-    table = pq.read_table(path, columns=columns).to_pydict()
-    rows = sorted((i for i, e in enumerate(table["episode_index"]) if e == episode["episode_index"]),
-                  key=lambda i: table["frame_index"][i])
-    return {k: [v[i] for i in rows] for k, v in table.items()}
-
-
-def _subtree_geoms(m: mujoco.MjModel, root: int) -> np.ndarray:
-    bodies = [b for b in range(m.nbody) if b == root or m.body_parentid[b] == root]
-    return np.flatnonzero(np.isin(m.geom_bodyid, bodies))
-
-
-def _local_box(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
-    """The body's geoms' bounding box, in the body's own frame (min, max)."""
-    rot, corners = d.xmat[body].reshape(3, 3), []
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-    for g in _subtree_geoms(m, body):
-        if not (m.geom_contype[g] or m.geom_conaffinity[g]):
-            continue
-        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-        world = d.geom_xpos[g] + (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T
-        corners.append((world - d.xpos[body]) @ rot)
-    local = np.concatenate(corners)
-    return local.min(0), local.max(0)
-
-
-def _bbox_centre(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> np.ndarray:
-    lo, hi = _local_box(m, d, body)
-    return d.xpos[body] + d.xmat[body].reshape(3, 3) @ ((lo + hi) / 2.0)
-
-
 def _touching(m: mujoco.MjModel, d: mujoco.MjData, body_name: str, body: int) -> bool:
-    mine = set(_subtree_geoms(m, body).tolist())
+    mine = set(rawdata.subtree_geoms(m, body).tolist())
     other = set(np.flatnonzero(m.geom_bodyid == m.body(body_name).id).tolist())
     return any((c.geom1 in mine and c.geom2 in other) or (c.geom2 in mine and c.geom1 in other)
                for c in d.contact[:d.ncon] if c.dist <= 0.0005)
@@ -252,7 +203,7 @@ def _touching(m: mujoco.MjModel, d: mujoco.MjData, body_name: str, body: int) ->
 def _fraction_inside(m: mujoco.MjModel, d: mujoco.MjData, liquid: str, container: str) -> float:
     """Particles inside the container's bounding box (its frame; 1 cm of headroom above the rim)."""
     body = m.body(container).id
-    lo, hi = _local_box(m, d, body)
+    lo, hi = rawdata.local_box(m, d, body)
     pts = np.array([d.xpos[b] for b in range(m.nbody) if m.body(b).name.startswith(f"{liquid}/p")])
     local = (pts - d.xpos[body]) @ d.xmat[body].reshape(3, 3)
     inside = np.all((local >= lo) & (local <= hi + np.array([0.0, 0.0, 0.01])), axis=1)

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-import pyarrow.parquet as pq
 import pytest
+import rawdata
 
 from mgdata.paths import recipes_dir
 
@@ -48,71 +48,31 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def _episodes(root: Path) -> list[dict]:
-    files = sorted(root.glob("meta/episodes/*/*.parquet"))
-    return [row for path in files for row in pq.read_table(path).to_pylist()]
-
-
-def _model(root: Path, key: str) -> mujoco.MjModel:
-    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
-    row = scenes[key]
-    mjb = np.frombuffer(row["data"], np.uint8)
-    if row["base"] is not None:
-        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
-    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
-
-
-def _frames(root: Path, info: dict, episode: dict) -> dict[str, list]:
-    path = root / info["data_path"].format(chunk_index=episode["data/chunk_index"],
-                                           file_index=episode["data/file_index"])
-    columns = ["episode_index", "frame_index", "sim.physics_state", "safety.violated", "safety.success"]
-    table = pq.read_table(path, columns=columns).to_pydict()
-    rows = [i for i, e in enumerate(table["episode_index"]) if e == episode["episode_index"]]
-    rows.sort(key=lambda i: table["frame_index"][i])
-    return {k: [v[i] for i in rows] for k, v in table.items()}
-
-
-def _subtree_geoms(m: mujoco.MjModel, root_body: int) -> np.ndarray:
-    bodies = [b for b in range(m.nbody) if b == root_body or m.body_parentid[b] == root_body]
-    return np.flatnonzero(np.isin(m.geom_bodyid, bodies))
-
-
-def _centre(m: mujoco.MjModel, d: mujoco.MjData, jar: int, geoms: np.ndarray) -> np.ndarray:
-    """World position of the centre of the jar's bounding box, in the jar's own frame (lid included)."""
-    rot, corners = d.xmat[jar].reshape(3, 3), []
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-    for g in geoms:
-        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-        world = d.geom_xpos[g] + (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T
-        corners.append((world - d.xpos[jar]) @ rot)  # into the jar frame
-    local = np.concatenate(corners)
-    return d.xpos[jar] + rot @ ((local.min(0) + local.max(0)) / 2.0)
-
-
 def test_kept_jar_demos_end_at_rest_in_the_goal_measured_from_the_dataset_alone(dataset: Path) -> None:
     info = json.loads((dataset / "meta/info.json").read_text())
     hold = int(info["mgdata"]["hold_steps"])
     spec = info["features"]["sim.physics_state"]["info"]["mujoco_state_spec"]
-    episodes = _episodes(dataset)
+    episodes = rawdata.episodes(dataset)
     assert len(episodes) == 3 and all(e["mgdata/kept"] for e in episodes)
     for episode in episodes:
-        m = _model(dataset, episode["mgdata/scene"])
+        m = rawdata.scene_model(dataset, episode["mgdata/scene"])
         d = mujoco.MjData(m)
         jar, table = m.body("jar").id, m.body("table").id
-        jar_geoms = _subtree_geoms(m, jar)
+        jar_geoms = rawdata.subtree_geoms(m, jar)
         fingers = [np.flatnonzero(m.geom_bodyid == m.body(b).id) for b in ("left_finger", "right_finger")]
         table_geoms = np.flatnonzero(m.geom_bodyid == table)
         goal = m.site("goal").id
         hinge = m.joint("jar/lid_hinge")
         free = m.joint("jar/free")
-        frames = _frames(dataset, info, episode)
+        frames = rawdata.frames(dataset, info, episode,
+                                ["sim.physics_state", "safety.violated", "safety.success"])
         n = len(frames["frame_index"])
         assert not any(any(v) for v in frames["safety.violated"]), f"episode {episode['episode_index']}"
         for t in range(n - hold, n):
             mujoco.mj_setState(m, d, np.asarray(frames["sim.physics_state"][t], dtype=np.float64), spec)
             mujoco.mj_forward(m, d)
             where = f"episode {episode['episode_index']} frame {t}"
-            gap = np.linalg.norm(_centre(m, d, jar, jar_geoms) - d.site_xpos[goal])
+            gap = np.linalg.norm(rawdata.box_centre(m, d, jar) - d.site_xpos[goal])
             assert gap < m.site_size[goal, 0], f"{where}: jar centre {gap * 100:.1f} cm from the goal centre"
             assert abs(d.qpos[m.jnt_qposadr[hinge.id]]) < LID_SHUT_RAD, f"{where}: lid open"
             pairs = {(int(c.geom1), int(c.geom2)) for c in d.contact[: d.ncon]}

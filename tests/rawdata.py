@@ -1,0 +1,60 @@
+"""Reading a dataset with nothing but ``pyarrow`` and ``mujoco`` (no mgdata code), for tests that check what
+the toolkit wrote against physics measured independently of it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pyarrow.parquet as pq
+
+
+def episodes(root: Path) -> list[dict]:
+    """Every row of ``meta/episodes``, in file order."""
+    files = sorted(root.glob("meta/episodes/*/*.parquet"))
+    return [row for path in files for row in pq.read_table(path).to_pylist()]
+
+
+def scene_model(root: Path, key: str) -> mujoco.MjModel:
+    """The MjModel stored for ``key`` in ``meta/scenes.parquet`` (whole, or an XOR delta against its base)."""
+    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
+    row = scenes[key]
+    mjb = np.frombuffer(row["data"], np.uint8)
+    if row["base"] is not None:
+        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
+    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
+
+
+def frames(root: Path, info: dict, episode: dict, columns: list[str]) -> dict[str, list]:
+    """The episode's per-frame ``columns`` (plus ``episode_index``, ``frame_index``), in frame order."""
+    path = root / info["data_path"].format(chunk_index=episode["data/chunk_index"],
+                                           file_index=episode["data/file_index"])
+    table = pq.read_table(path, columns=["episode_index", "frame_index", *columns]).to_pydict()
+    rows = sorted((i for i, e in enumerate(table["episode_index"]) if e == episode["episode_index"]),
+                  key=lambda i: table["frame_index"][i])
+    return {k: [v[i] for i in rows] for k, v in table.items()}
+
+
+def subtree_geoms(m: mujoco.MjModel, root: int) -> np.ndarray:
+    """Geoms of body ``root`` and its direct children (an object and its links)."""
+    bodies = [b for b in range(m.nbody) if b == root or m.body_parentid[b] == root]
+    return np.flatnonzero(np.isin(m.geom_bodyid, bodies))
+
+
+def local_box(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box (min, max) of the body's geoms (links included), in the body's own frame."""
+    rot, corners = d.xmat[body].reshape(3, 3), []
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    for g in subtree_geoms(m, body):
+        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        world = d.geom_xpos[g] + (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T
+        corners.append((world - d.xpos[body]) @ rot)
+    local = np.concatenate(corners)
+    return local.min(0), local.max(0)
+
+
+def box_centre(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> np.ndarray:
+    """World position of the centre of :func:`local_box`."""
+    lo, hi = local_box(m, d, body)
+    return d.xpos[body] + d.xmat[body].reshape(3, 3) @ ((lo + hi) / 2.0)
