@@ -49,6 +49,10 @@ def register(app: typer.Typer) -> None:
         max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
         codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
         recipe: Annotated[Path | None, typer.Option(help="Use this recipe file.")] = None,
+        render_after: Annotated[bool, typer.Option(
+            "--render-after/--render-during",
+            help="Render only the recorded episodes, after the gate, from their physics states (same "
+                 "bytes as rendering every step during execution, faster when attempts fail).")] = True,
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
 
@@ -61,7 +65,8 @@ def register(app: typer.Typer) -> None:
         job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks),
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
-                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
+                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
+                          render_after=render_after)
         console = plain_console()
         with ProgressView(RunSummary(out=job.out, target=n), console) as view:
             summary = run(job, on_attempt=view.update)

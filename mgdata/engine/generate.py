@@ -70,6 +70,9 @@ class GenerateJob:
         codec: video codec of a new dataset (``h264`` or ``av1``).
         grasps: grasp database folder.
         recipe: a recipe file to use instead of ``recipes/<family>.toml``.
+        render_after: render only the episodes that are recorded, after their attempt, from their physics
+            states (two passes; the default), instead of every step of every attempt while it runs; the
+            dataset's bytes are the same either way.
     """
 
     family: str
@@ -83,6 +86,7 @@ class GenerateJob:
     codec: str = "h264"
     grasps: Path | None = None
     recipe: Path | None = None
+    render_after: bool = True
 
 
 def failed_path(out: Path) -> Path:
@@ -241,7 +245,8 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
         # per-run folder under staging/ (which the writer's open() clears after a crash)
         stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
-        config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video)
+        config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video,
+                              job.render_after)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary
