@@ -20,6 +20,7 @@ Example::
 from __future__ import annotations
 
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
 
@@ -50,7 +51,7 @@ from mgdata.record.metafiles import (
 from mgdata.record.reader import DatasetReader, read_parquet
 from mgdata.record.scenes import Scenes
 from mgdata.record.staging import EpisodeStager, StagedEpisode
-from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
+from mgdata.record.stats import FeatureStats, image_stats, merge_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
 from mgdata.spec import SafetySpec
 
@@ -74,7 +75,7 @@ class DatasetWriter:
         self._frame_cols = layout.frame_columns(self.schema)
         self._records: list[EpisodeRecord] = []
         self._tasks: list[str] = []
-        self._values: dict[str, list[np.ndarray]] = {c.key: [] for c in layout.all_columns(self.schema)}
+        self._numeric: dict[str, FeatureStats] = {}  # dataset stats of the numeric features (merged)
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
         self._scenes = Scenes([])
@@ -171,13 +172,10 @@ class DatasetWriter:
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
-        for ref in sorted({r.data for r in self._records}):
-            table = reader.data_table(ref)
-            for col in layout.all_columns(self.schema):
-                self._values[col.key].append(col.from_arrow(table.column(col.key)))
         for rec in self._records:
             for key, hist in rec.histograms.items():
                 self._hist_sum[key] += hist
+            self._numeric = _merged(self._numeric, rec.stats, self.schema)
 
     # --- queries -----------------------------------------------------------------------------------------
 
@@ -327,10 +325,10 @@ class DatasetWriter:
         ep_stats: dict[str, FeatureStats] = {
             key: image_stats(staged.histograms[key], length) if image else numeric_stats(values[key])
             for key, image in stats_features(s)}
-        all_values = {k: np.concatenate([*self._values[k], values[k]]) for k in self._values}
+        numeric = _merged(self._numeric, ep_stats, s)
         hist_sum = {k: self._hist_sum[k] + staged.histograms[k] for k in self._hist_sum}
         total = start + length
-        ds_stats = {key: image_stats(hist_sum[key], total) if image else numeric_stats(all_values[key])
+        ds_stats = {key: image_stats(hist_sum[key], total) if image else numeric[key]
                     for key, image in stats_features(s)}
 
         # episodes table (rolls over like data files)
@@ -352,7 +350,7 @@ class DatasetWriter:
                         splits={"train": f"0:{ep + 1}"})
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
-        return record, tasks, values, staged.histograms, ep_table, new_info, scenes
+        return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes
 
     def _install(self, tx: Transaction, state: tuple) -> None:
         """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.
@@ -368,12 +366,11 @@ class DatasetWriter:
                 raise
             self._apply(*state)
 
-    def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
+    def _apply(self, record: EpisodeRecord, tasks: list[str], numeric: dict[str, FeatureStats],
                hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: Scenes) -> None:
         self._records.append(record)
         self._tasks = tasks
-        for key, v in values.items():
-            self._values[key].append(v)
+        self._numeric = numeric
         for key, h in hists.items():
             self._hist_sum[key] += h
         self._episodes_table = ep_table
@@ -408,3 +405,9 @@ class DatasetWriter:
                  tb: TracebackType | None) -> None:
         self.close()
 
+
+def _merged(numeric: dict[str, FeatureStats], episode: Mapping[str, FeatureStats],
+            schema: DatasetSchema) -> dict[str, FeatureStats]:
+    """The numeric dataset stats with one more episode's stats merged in (:func:`merge_stats`)."""
+    return {key: merge_stats(numeric.get(key), episode[key]) for key, image in stats_features(schema)
+            if not image}
