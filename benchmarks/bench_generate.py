@@ -70,7 +70,8 @@ def low_yield_recipe(folder: Path) -> Path:
         if old not in text:
             raise SystemExit(f"recipes/jar.toml no longer has {old!r}: update the --low-yield variant")
         text = text.replace(old, new)
-    path = folder / "jar_low_yield.toml"
+    (folder / "low_yield").mkdir(exist_ok=True)
+    path = folder / "low_yield" / "jar.toml"  # a recipe's file name is its family
     path.write_text(text)
     return path
 

@@ -131,6 +131,7 @@ def _open(job: RenderJob, reader: DatasetReader, schema: DatasetSchema,
         chunks_size=int(info["chunks_size"]), data_file_mb=int(info["data_files_size_in_mb"]),
         video_file_mb=int(info["video_files_size_in_mb"]),
         video_file_seconds=float(info["mgdata"]["video_file_seconds"]), hold_steps=reader.hold_steps,
+        episodes_per_file=info["mgdata"].get("episodes_per_file"),
         kept_only=reader.kept_only, mgdata=extra)
     if writer.video != video:
         writer.close()

@@ -6,7 +6,9 @@ camera's current mp4, appends its rows to the current data file, adds its row to
 rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
 to ``meta/scenes.parquet``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
 process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
-size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
+size limits (data 100 MB, video 200 MB), for video after ``video_file_seconds``, and for data and episodes
+files after ``episodes_per_file`` episodes, so a commit costs the same at episode 1 and episode 10,000
+(dataset stats are merged incrementally too, :func:`~mgdata.record.stats.merge_stats`).
 
 Example::
 
@@ -90,7 +92,8 @@ class DatasetWriter:
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
                video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
-               kept_only: bool = False, mgdata: dict | None = None) -> DatasetWriter:
+               kept_only: bool = False, mgdata: dict | None = None,
+               episodes_per_file: int | None = layout.EPISODES_PER_FILE) -> DatasetWriter:
         """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
         are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
         held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
@@ -115,7 +118,7 @@ class DatasetWriter:
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
-                          hold_steps=hold_steps, kept_only=kept_only)
+                          hold_steps=hold_steps, kept_only=kept_only, episodes_per_file=episodes_per_file)
         info["mgdata"].update({k: v for k, v in (mgdata or {}).items() if k not in info["mgdata"]})
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
@@ -287,8 +290,9 @@ class DatasetWriter:
                                     schema=layout.data_arrow_schema(s))
         data_ref = last.data if last else layout.FileRef()
         old_data = self.root / layout.data_path(data_ref)
-        if last and old_data.stat().st_size + (staged.path / "frames.parquet").stat().st_size > \
-                info["data_files_size_in_mb"] * _MB:
+        per_file = info["mgdata"].get("episodes_per_file") or ep + 1  # absent in older datasets: no limit
+        if last and (old_data.stat().st_size + (staged.path / "frames.parquet").stat().st_size >
+                     info["data_files_size_in_mb"] * _MB or self._episodes_in_data_file() >= per_file):
             data_ref = data_ref.next(info["chunks_size"])
         elif last:
             rows = pa.concat_tables([pq.read_table(old_data, schema=rows.schema), rows])
@@ -333,7 +337,8 @@ class DatasetWriter:
 
         # episodes table (rolls over like data files)
         meta_ref, ep_table = (last.meta_file, self._episodes_table) if last else (layout.FileRef(), None)
-        if ep_table is not None and ep_table.nbytes > info["data_files_size_in_mb"] * _MB:
+        if ep_table is not None and (ep_table.nbytes > info["data_files_size_in_mb"] * _MB
+                                     or ep_table.num_rows >= per_file):
             meta_ref, ep_table = meta_ref.next(info["chunks_size"]), None
         record = EpisodeRecord(ep, length, staged.task, data_ref, start, spans, meta_ref, staged.meta,
                                ep_stats, dict(staged.histograms), scene)
@@ -351,6 +356,15 @@ class DatasetWriter:
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
         return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes
+
+    def _episodes_in_data_file(self) -> int:
+        """Episodes in the current (last) data file."""
+        last, n = self._records[-1].data, 0
+        for rec in reversed(self._records):
+            if rec.data != last:
+                break
+            n += 1
+        return n
 
     def _install(self, tx: Transaction, state: tuple) -> None:
         """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.

@@ -72,3 +72,16 @@ def test_merged_stats_equal_the_stats_of_all_frames(episodes: list[np.ndarray]) 
     for key, q in QUANTILES:
         want = n @ np.stack([np.quantile(ep.astype(np.float64), q, axis=0) for ep in episodes]) / n.sum()
         np.testing.assert_allclose(merged[key], want, rtol=1e-9, atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.text(min_size=1, max_size=12), st.text(max_size=8), max_size=12),
+       st.dictionaries(st.text(max_size=6), st.integers() | st.text(max_size=5) | st.none(), max_size=4))
+def test_info_json_is_written_as_json_dumps_writes_it(sums: dict[str, str], other: dict) -> None:
+    """``dump_json`` writes the checksum block of info.json by hand (fast); the bytes are json.dumps's."""
+    import json
+
+    from mgdata.record.metafiles import dump_json
+
+    info = {"codebase_version": "v3.0", **other, "mgdata": {"format": 1, "sha256": sums, "after": [1, 2]}}
+    assert dump_json(info) == json.dumps(info, indent=4, ensure_ascii=False, allow_nan=False) + "\n"
