@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -34,8 +35,13 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
 def register(app: typer.Typer) -> None:
     @app.command()
     def generate(
-        family: Annotated[str, typer.Option(help="Task family (recipe + skeleton).")] = "jar",
-        n: Annotated[int, typer.Option("--n", help="Kept demonstrations wanted in the dataset.")] = 40,
+        family: Annotated[str, typer.Option(
+            help="Task family (recipe + skeleton), or 'all': one dataset per family under --out.")] = "jar",
+        n: Annotated[int | None, typer.Option("--n", help="Kept demonstrations wanted in the dataset "
+                                                          "[default: 40].", show_default=False)] = None,
+        per_task: Annotated[int | None, typer.Option(
+            help="Kept demonstrations wanted per base task (instead of --n; the paper's release: 40).")]
+        = None,
         tasks: Annotated[str, typer.Option(help="Base tasks, round-robin: 'all' or e.g. '0-3,7'.")] = "all",
         task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
         out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
@@ -60,18 +66,41 @@ def register(app: typer.Typer) -> None:
         """
         from mgdata.engine.generate import GenerateJob
         from mgdata.engine.generate import generate as run
+        from mgdata.engine.suite import ALL, generate_suite, suite_table
         from mgdata.engine.summary import ProgressView, RunSummary, print_summary
 
-        job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
+        if n is not None and per_task is not None:
+            raise RecipeError("--n and --per-task exclude each other: give the dataset's total or the "
+                              "per-task quota")
+        job = GenerateJob(family=family, n=40 if n is None else n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks),
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
-                          render_after=render_after)
+                          render_after=render_after, per_task=per_task)
         console = plain_console()
-        with ProgressView(RunSummary(out=job.out, target=n), console) as view:
+        if family == ALL:
+            views: list[ProgressView] = []
+
+            def start(fam_job: GenerateJob) -> Callable[[RunSummary], None]:
+                for old in views:
+                    old.__exit__(None)
+                console.print(f"{fam_job.family} -> {fam_job.out}")
+                views.append(ProgressView(RunSummary(out=fam_job.out, target=fam_job.n), console))
+                return views[-1].update
+
+            try:
+                rows = generate_suite(job, on_start=start)
+            finally:
+                for view in views:
+                    view.__exit__(None)
+            console.print(suite_table(rows))
+            if any(s.total_kept < s.target for _, s in rows):
+                raise typer.Exit(1)
+            return
+        with ProgressView(RunSummary(out=job.out, target=job.n), console) as view:
             summary = run(job, on_attempt=view.update)
         print_summary(summary, console)
-        if summary.total_kept < n:
+        if summary.total_kept < summary.target:
             raise typer.Exit(1)
 
     @app.command()
