@@ -32,6 +32,19 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
     return tuple(out)
 
 
+def parse_shard(text: str | None) -> tuple[int, int] | None:
+    """``"1/4"`` -> ``(1, 4)``."""
+    if text is None:
+        return None
+    i, sep, n = text.partition("/")
+    try:
+        if not sep:
+            raise ValueError(text)
+        return int(i), int(n)
+    except ValueError:
+        raise RecipeError(f"--shard {text!r}: expected i/N, e.g. 0/4") from None
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     def generate(
@@ -55,6 +68,9 @@ def register(app: typer.Typer) -> None:
         max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
         codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
         recipe: Annotated[Path | None, typer.Option(help="Use this recipe file.")] = None,
+        shard: Annotated[str | None, typer.Option(
+            help="Generate shard i of N ('i/N', with --per-task): tasks i, i+N, …; join with mgdata merge.")]
+        = None,
         render_after: Annotated[bool, typer.Option(
             "--render-after/--render-during",
             help="Render only the recorded episodes, after the gate, from their physics states (same "
@@ -76,7 +92,7 @@ def register(app: typer.Typer) -> None:
                           tasks=(task,) if task is not None else parse_ids(tasks),
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
-                          render_after=render_after, per_task=per_task)
+                          render_after=render_after, per_task=per_task, shard=parse_shard(shard))
         console = plain_console()
         if family == ALL:
             views: list[ProgressView] = []
@@ -126,3 +142,21 @@ def register(app: typer.Typer) -> None:
         except OSError as err:
             raise OutputError(f"--out {target}: cannot write the preview ({err.strerror or err})") from None
         plain_console().print(f"wrote {path}")
+
+    @app.command()
+    def merge(
+        shards: Annotated[list[Path], typer.Argument(
+            help="The shard datasets (mgdata generate --shard i/N).")],
+        out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
+    ) -> None:
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte.
+
+        Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        """
+        from mgdata.engine.merge import merge_shards
+
+        for shard in shards:
+            if not shard.is_dir():
+                raise DatasetError(f"{shard}: no such dataset folder")
+        n = merge_shards(list(shards), out)
+        plain_console().print(f"wrote {out} ({n} episodes from {len(shards)} shards)")

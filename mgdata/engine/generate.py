@@ -75,6 +75,9 @@ class GenerateJob:
         per_task: kept episodes wanted per selected base task (``--per-task``; replaces ``n``): the draw
             cursor passes over a task once its quota is met, and an attempt of a full task that was already
             running is dropped uncounted, so the dataset does not depend on the number of workers.
+        shard: ``(i, N)``: this run generates shard ``i`` of ``N`` (``--shard i/N``, with ``--per-task``): the
+            selected tasks at positions ``i, i + N, …``; ``mgdata merge`` joins the shards' datasets into
+            the one a single run would have written.
         render_after: render only the episodes that are recorded, after their attempt, from their physics
             states (two passes; the default), instead of every step of every attempt while it runs; the
             dataset's bytes are the same either way.
@@ -93,6 +96,7 @@ class GenerateJob:
     recipe: Path | None = None
     render_after: bool = True
     per_task: int | None = None
+    shard: tuple[int, int] | None = None
 
 
 def failed_path(out: Path) -> Path:
@@ -118,6 +122,25 @@ def _tasks(job: GenerateJob, recipe: Recipe) -> tuple[int, ...]:
         raise RecipeError(f"{recipe.path}: task id(s) {bad or '(none)'} do not exist; the recipe has tasks "
                           f"0 … {recipe.tasks.count - 1}")
     return tuple(dict.fromkeys(tasks))
+
+
+def shard_tasks(job: GenerateJob, tasks: tuple[int, ...]) -> tuple[int, ...]:
+    """The tasks of ``job.shard`` (all of ``tasks`` without one). A shard needs ``--per-task`` (a total
+    ``--n`` cannot be split without knowing each task's yield) and tasks in ascending order (the canonical
+    order ``mgdata merge`` restores: by draw, then task)."""
+    if job.shard is None:
+        return tasks
+    i, n = job.shard
+    if not 0 <= i < n:
+        raise RecipeError(f"--shard {i}/{n}: expected i/N with 0 <= i < N")
+    if job.per_task is None:
+        raise RecipeError("--shard needs --per-task (each shard fills the quota of its own tasks)")
+    if list(tasks) != sorted(tasks):
+        raise RecipeError(f"--shard: give the tasks in ascending order (got {list(tasks)})")
+    mine = tasks[i::n]
+    if not mine:
+        raise RecipeError(f"--shard {i}/{n}: no task falls in this shard ({len(tasks)} tasks selected)")
+    return mine
 
 
 def inputs_digest(recipe: Recipe, grasps: Path) -> str:
@@ -215,6 +238,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     every committed attempt.
     """
     recipe, tasks, grasps = check_inputs(job)
+    tasks = shard_tasks(job, tasks)
     if job.per_task is not None:
         job = dataclasses.replace(job, n=job.per_task * len(tasks))
     schema = dataset_schema(recipe)

@@ -1,10 +1,11 @@
 """``mgdata generate --family all``: the whole suite, one dataset per family under one folder.
 
-Each family found by :func:`mgdata.tasks.recipe.family_recipes` is generated into ``<out>/<family>`` with the
-same options (``--n`` or ``--per-task``, ``--tasks``, workers, seed, ...), one after the other, through the ordinary
-:func:`~mgdata.engine.generate.generate`; so the suite resumes as a whole (re-running the command resumes
-every dataset, and a finished one has nothing to do) and every dataset is byte-identical to generating that
-family alone. The final table has one row per family: kept, attempts, yield, failure stages and time.
+Each family found by :func:`mgdata.tasks.recipe.family_recipes` is generated into ``<out>/<family>`` with
+the same options (``--n`` or ``--per-task``, ``--tasks``, workers, seed, ...), one after the other, through
+the ordinary :func:`~mgdata.engine.generate.generate`; so the suite resumes as a whole (re-running the
+command resumes every dataset, and a finished one has nothing to do) and every dataset is byte-identical to
+generating that family alone. The final table has one row per family: kept, attempts, yield, failure
+stages and time.
 
 Example::
 
