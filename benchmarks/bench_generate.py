@@ -18,7 +18,8 @@ cameras at 256², H.264) into a fresh dataset and prints:
 ``--low-yield`` runs a variant of the jar recipe in which about half of the attempts fail honestly: the goal
 sphere's radius is 4 cm instead of 5 and the carried jar is aimed up to 5 cm off the goal centre along x and
 y (instead of 1.2 cm), so on about π·4²/10² ≈ 50 % of the draws the jar ends up held outside the goal and the
-gate reports ``goal_not_reached`` after the whole motion.
+gate reports ``goal_not_reached`` after the whole motion. Use it with a few ``--tasks`` (e.g. ``0-3``):
+draw 0 of every task aims at the goal centre, so the failures come from the later draws.
 
 Rendering runs on Mesa's llvmpipe, which starts one thread per core unless told otherwise; the benchmark pins
 it to one thread per worker (``LP_NUM_THREADS=1``, set before MuJoCo or any worker starts) so that a worker
