@@ -1,7 +1,7 @@
-"""Generation benchmark per family (prints figures; targets from issues 4, 8 and 9).
+"""Generation benchmark per family (prints figures; targets from issues 4, 8, 9 and 16).
 
-For each family and worker count it runs ``mgdata generate`` (the same code path as the CLI, the shipped
-recipe: five cameras at 256², H.264) into a fresh dataset and prints:
+For each family (``--family``, default jar) and worker count it runs ``mgdata generate`` (the same code path
+as the CLI, the shipped recipe: five cameras at 256², H.264) into a fresh dataset and prints:
 
 - wall time, kept demonstrations, attempts and the gate yield (kept / attempts; target >= 80 %);
 - kept demonstrations per core-hour two ways: per **CPU-hour** (user + system CPU time of this process and
@@ -10,14 +10,23 @@ recipe: five cameras at 256², H.264) into a fresh dataset and prints:
   what the run occupied). The target (>= 150) applies to the lower of the two;
 - the time split (IK/planning, physics, rendering + labelling, encoding, writing), summed over workers;
 - the failure stages;
-- the speed-up of the largest worker count over one worker (target >= 1.7× for 2 workers).
+- the speed-up of the largest worker count over one worker (target >= 1.7× for 2 workers);
+- with ``--render after during``: both ways of rendering (``--render-after``, the default: attempts run
+  without cameras and only kept episodes are rendered from their physics states; ``--render-during``: every
+  step of every attempt is rendered while it runs) and the gain of rendering after the gate.
+
+``--low-yield`` runs a variant of the jar recipe in which about half of the attempts fail honestly: the goal
+sphere's radius is 4 cm instead of 5 and the carried jar is aimed up to 5 cm off the goal centre along x and
+y (instead of 1.2 cm), so on about π·4²/10² ≈ 50 % of the draws the jar ends up held outside the goal and the
+gate reports ``goal_not_reached`` after the whole motion. Use it with a few ``--tasks`` (e.g. ``0-3``):
+draw 0 of every task aims at the goal centre, so the failures come from the later draws.
 
 Rendering runs on Mesa's llvmpipe, which starts one thread per core unless told otherwise; the benchmark pins
 it to one thread per worker (``LP_NUM_THREADS=1``, set before MuJoCo or any worker starts) so that a worker
 is one core and the per-core figures mean what they say.
 
-Run: ``.venv/bin/python benchmarks/bench_generate.py [--family jar clutter_dry] [--n 40] [--workers 1 2]
-[--tasks all]``
+Run: ``.venv/bin/python benchmarks/bench_generate.py [--family jar clutter_dry clutter_liquid] [--n 40]
+[--workers 1 2] [--tasks all] [--render after during] [--low-yield]``
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ from mgdata.engine.commands import parse_ids
 from mgdata.engine.generate import GenerateJob, generate
 from mgdata.engine.summary import RunSummary
 from mgdata.engine.timing import PHASES
+from mgdata.paths import recipes_dir
 
 
 def cpu_seconds() -> float:
@@ -51,18 +61,36 @@ class Measured:
     cpu: float  # CPU seconds the run consumed (all processes)
 
 
-def run(family: str, n: int, workers: int, tasks: str, root: Path) -> Measured:
-    out = root / f"{family}_w{workers}"
+def low_yield_recipe(folder: Path) -> Path:
+    """The shipped jar recipe with about half of the attempts failing at the goal (module docstring)."""
+    text = (recipes_dir() / "jar.toml").read_text()
+    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
+    for old, new in (("radius = 0.05", "radius = 0.04"),
+                     ("goal_dx = [-0.012, 0.012]", "goal_dx = [-0.05, 0.05]"),
+                     ("goal_dy = [-0.012, 0.012]", "goal_dy = [-0.05, 0.05]")):
+        if old not in text:
+            raise SystemExit(f"recipes/jar.toml no longer has {old!r}: update the --low-yield variant")
+        text = text.replace(old, new)
+    (folder / "low_yield").mkdir(exist_ok=True)
+    path = folder / "low_yield" / "jar.toml"  # a recipe's file name is its family
+    path.write_text(text)
+    return path
+
+
+def run(family: str, n: int, workers: int, tasks: str, root: Path, render: str,
+        recipe: Path | None) -> Measured:
+    out = root / f"{family}_w{workers}_{render}"
     shutil.rmtree(out, ignore_errors=True)
     cpu0 = cpu_seconds()
-    summary = generate(GenerateJob(family=family, n=n, out=out, tasks=parse_ids(tasks), workers=workers))
+    summary = generate(GenerateJob(family=family, n=n, out=out, tasks=parse_ids(tasks), workers=workers,
+                                   recipe=recipe, render_after=render == "after"))
     return Measured(summary, cpu_seconds() - cpu0)  # the pool is joined by now: its CPU time is counted
 
 
-def report(m: Measured, family: str, workers: int) -> None:
+def report(m: Measured, family: str, workers: int, render: str) -> None:
     summary = m.summary
     wall_core_h = summary.wall * workers / 3600.0
-    print(f"\n== {family}, workers {workers}: {summary.stopped}")
+    print(f"\n== {family}, workers {workers}, rendering {render} the gate: {summary.stopped}")
     print(f"wall {summary.wall:.1f} s ({summary.wall / 60:.1f} min) · CPU {m.cpu:.1f} s "
           f"({m.cpu / max(summary.wall * workers, 1e-9):.0%} of wall × workers) · kept {summary.kept} · "
           f"attempts {summary.attempts} · yield {summary.yield_:.0%}")
@@ -85,21 +113,37 @@ def main() -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--tasks", default="all")
     parser.add_argument("--keep", type=Path, default=None, help="write the datasets here (default: tmp dir)")
+    parser.add_argument("--render", nargs="+", choices=("after", "during"), default=["after"],
+                        help="render after the gate (default) and/or during execution")
+    parser.add_argument("--low-yield", action="store_true", help="the ~50 %% yield jar recipe variant")
     args = parser.parse_args()
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench_generate_"))
-    print(f"LP_NUM_THREADS={os.environ['LP_NUM_THREADS']} · {os.cpu_count()} cores visible")
+    root.mkdir(parents=True, exist_ok=True)
+    if args.low_yield and args.family != ["jar"]:
+        raise SystemExit("--low-yield is a variant of the jar recipe: use it with --family jar")
+    recipe = low_yield_recipe(root) if args.low_yield else None
+    print(f"LP_NUM_THREADS={os.environ['LP_NUM_THREADS']} · {os.cpu_count()} cores visible · families "
+          f"{', '.join(args.family)}{' (jar: low-yield variant)' if args.low_yield else ''}")
     try:
         for family in args.family:
-            results: dict[int, Measured] = {}
-            for w in args.workers:
-                results[w] = run(family, args.n, w, args.tasks, root)
-                report(results[w], family, w)
-            if 1 in results and len(results) > 1:
-                most = max(results)
-                one, many = results[1].summary, results[most].summary
-                ratio = (many.kept / many.wall) / (one.kept / one.wall)
-                print(f"\n{family}: speed-up {most} workers vs 1: {one.wall / many.wall:.2f}× "
-                      f"(kept-per-wall-hour ratio {ratio:.2f}×)")
+            per_cpu: dict[str, dict[int, float]] = {}
+            for render in args.render:
+                results: dict[int, Measured] = {}
+                for w in args.workers:
+                    results[w] = run(family, args.n, w, args.tasks, root, render, recipe)
+                    report(results[w], family, w, render)
+                if 1 in results and len(results) > 1:
+                    most = max(results)
+                    one, many = results[1].summary, results[most].summary
+                    ratio = (many.kept / many.wall) / (one.kept / one.wall)
+                    print(f"\n{family}: speed-up {most} workers vs 1: {one.wall / many.wall:.2f}× "
+                          f"(kept-per-wall-hour ratio {ratio:.2f}×)")
+                per_cpu[render] = {w: m.summary.kept / m.cpu for w, m in results.items()}
+            if len(per_cpu) == 2:
+                for w in args.workers:
+                    gain = per_cpu["after"][w] / per_cpu["during"][w]
+                    print(f"\n{family}: rendering after the gate vs during, {w} worker(s): {gain:.2f}× kept "
+                          "per CPU-hour")
     finally:
         if args.keep is None:
             shutil.rmtree(root, ignore_errors=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -29,6 +30,19 @@ def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
         raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7' "
                           "(each range low-high with low <= high)") from None
     return tuple(out)
+
+
+def parse_shard(text: str | None) -> tuple[int, int] | None:
+    """``"1/4"`` -> ``(1, 4)``."""
+    if text is None:
+        return None
+    i, sep, n = text.partition("/")
+    try:
+        if not sep:
+            raise ValueError(text)
+        return int(i), int(n)
+    except ValueError:
+        raise RecipeError(f"--shard {text!r}: expected i/N, e.g. 0/4") from None
 
 
 def register(app: typer.Typer) -> None:
@@ -75,8 +89,13 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def generate(
-        family: Annotated[str, typer.Option(help="Task family (recipe + skeleton).")] = "jar",
-        n: Annotated[int, typer.Option("--n", help="Kept demonstrations wanted in the dataset.")] = 40,
+        family: Annotated[str, typer.Option(
+            help="Task family (recipe + skeleton), or 'all': one dataset per family under --out.")] = "jar",
+        n: Annotated[int | None, typer.Option("--n", help="Kept demonstrations wanted in the dataset "
+                                                          "[default: 40].", show_default=False)] = None,
+        per_task: Annotated[int | None, typer.Option(
+            help="Kept demonstrations wanted per base task (instead of --n; the paper's release: 40).")]
+        = None,
         tasks: Annotated[str, typer.Option(help="Base tasks, round-robin: 'all' or e.g. '0-3,7'.")] = "all",
         task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
         out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
@@ -90,6 +109,13 @@ def register(app: typer.Typer) -> None:
         max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
         codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
         recipe: Annotated[Path | None, typer.Option(help="Use this recipe file.")] = None,
+        shard: Annotated[str | None, typer.Option(
+            help="Generate shard i of N ('i/N', with --per-task): tasks i, i+N, …; join with mgdata merge.")]
+        = None,
+        render_after: Annotated[bool, typer.Option(
+            "--render-after/--render-during",
+            help="Render only the recorded episodes, after the gate, from their physics states (same "
+                 "bytes as rendering every step during execution, faster when attempts fail).")] = True,
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
 
@@ -97,17 +123,41 @@ def register(app: typer.Typer) -> None:
         """
         from mgdata.engine.generate import GenerateJob
         from mgdata.engine.generate import generate as run
+        from mgdata.engine.suite import ALL, generate_suite, suite_table
         from mgdata.engine.summary import ProgressView, RunSummary, print_summary
 
-        job = GenerateJob(family=family, n=n, out=out or datasets_dir() / family,
+        if n is not None and per_task is not None:
+            raise RecipeError("--n and --per-task exclude each other: give the dataset's total or the "
+                              "per-task quota")
+        job = GenerateJob(family=family, n=40 if n is None else n, out=out or datasets_dir() / family,
                           tasks=(task,) if task is not None else parse_ids(tasks),
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
-                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe)
+                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
+                          render_after=render_after, per_task=per_task, shard=parse_shard(shard))
         console = plain_console()
-        with ProgressView(RunSummary(out=job.out, target=n), console) as view:
+        if family == ALL:
+            views: list[ProgressView] = []
+
+            def start(fam_job: GenerateJob) -> Callable[[RunSummary], None]:
+                for old in views:
+                    old.__exit__(None)
+                console.print(f"{fam_job.family} -> {fam_job.out}")
+                views.append(ProgressView(RunSummary(out=fam_job.out, target=fam_job.n), console))
+                return views[-1].update
+
+            try:
+                rows = generate_suite(job, on_start=start)
+            finally:
+                for view in views:
+                    view.__exit__(None)
+            console.print(suite_table(rows))
+            if any(s.total_kept < s.target for _, s in rows):
+                raise typer.Exit(1)
+            return
+        with ProgressView(RunSummary(out=job.out, target=job.n), console) as view:
             summary = run(job, on_attempt=view.update)
         print_summary(summary, console)
-        if summary.total_kept < n:
+        if summary.total_kept < summary.target:
             raise typer.Exit(1)
 
     @app.command()
@@ -133,3 +183,21 @@ def register(app: typer.Typer) -> None:
         except OSError as err:
             raise OutputError(f"--out {target}: cannot write the preview ({err.strerror or err})") from None
         plain_console().print(f"wrote {path}")
+
+    @app.command()
+    def merge(
+        shards: Annotated[list[Path], typer.Argument(
+            help="The shard datasets (mgdata generate --shard i/N).")],
+        out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
+    ) -> None:
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte.
+
+        Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        """
+        from mgdata.engine.merge import merge_shards
+
+        for shard in shards:
+            if not shard.is_dir():
+                raise DatasetError(f"{shard}: no such dataset folder")
+        n = merge_shards(list(shards), out)
+        plain_console().print(f"wrote {out} ({n} episodes from {len(shards)} shards)")

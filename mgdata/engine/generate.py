@@ -21,8 +21,10 @@ Example::
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import copy
+import dataclasses
 import hashlib
 import os
 import shutil
@@ -72,6 +74,15 @@ class GenerateJob:
         codec: video codec of a new dataset (``h264`` or ``av1``).
         grasps: grasp database folder.
         recipe: a recipe file to use instead of ``recipes/<family>.toml``.
+        per_task: kept episodes wanted per selected base task (``--per-task``; replaces ``n``): the draw
+            cursor passes over a task once its quota is met, and an attempt of a full task that was already
+            running is dropped uncounted, so the dataset does not depend on the number of workers.
+        shard: ``(i, N)``: this run generates shard ``i`` of ``N`` (``--shard i/N``, with ``--per-task``): the
+            selected tasks at positions ``i, i + N, …``; ``mgdata merge`` joins the shards' datasets into
+            the one a single run would have written.
+        render_after: render only the episodes that are recorded, after their attempt, from their physics
+            states (two passes; the default), instead of every step of every attempt while it runs; the
+            dataset's bytes are the same either way.
     """
 
     family: str
@@ -85,6 +96,9 @@ class GenerateJob:
     codec: str = "h264"
     grasps: Path | None = None
     recipe: Path | None = None
+    render_after: bool = True
+    per_task: int | None = None
+    shard: tuple[int, int] | None = None
 
 
 def failed_path(out: Path) -> Path:
@@ -112,6 +126,25 @@ def _tasks(job: GenerateJob, recipe: Recipe) -> tuple[int, ...]:
     return tuple(dict.fromkeys(tasks))
 
 
+def shard_tasks(job: GenerateJob, tasks: tuple[int, ...]) -> tuple[int, ...]:
+    """The tasks of ``job.shard`` (all of ``tasks`` without one). A shard needs ``--per-task`` (a total
+    ``--n`` cannot be split without knowing each task's yield) and tasks in ascending order (the canonical
+    order ``mgdata merge`` restores: by draw, then task)."""
+    if job.shard is None:
+        return tasks
+    i, n = job.shard
+    if not 0 <= i < n:
+        raise RecipeError(f"--shard {i}/{n}: expected i/N with 0 <= i < N")
+    if job.per_task is None:
+        raise RecipeError("--shard needs --per-task (each shard fills the quota of its own tasks)")
+    if list(tasks) != sorted(tasks):
+        raise RecipeError(f"--shard: give the tasks in ascending order (got {list(tasks)})")
+    mine = tasks[i::n]
+    if not mine:
+        raise RecipeError(f"--shard {i}/{n}: no task falls in this shard ({len(tasks)} tasks selected)")
+    return mine
+
+
 def inputs_digest(recipe: Recipe, grasps: Path) -> str:
     """Hash of everything besides the code that shapes the data: the family recipe and its spec
     (``recipe.digest``), ``recipes/sim.toml``, ``recipes/motion.toml`` and the grasp database files."""
@@ -127,6 +160,8 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
     compiled), the grasp database, the options, and the selected base tasks (their layout)."""
     if job.n < 1:
         raise RecipeError(f"--n must be at least 1, got {job.n}")
+    if job.per_task is not None and job.per_task < 1:
+        raise RecipeError(f"--per-task must be at least 1, got {job.per_task}")
     if job.workers < 1:
         raise RecipeError(f"--workers must be at least 1, got {job.workers}")
     if job.seed < 0:
@@ -206,6 +241,9 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     every committed attempt.
     """
     recipe, tasks, grasps = check_inputs(job)
+    tasks = shard_tasks(job, tasks)
+    if job.per_task is not None:
+        job = dataclasses.replace(job, n=job.per_task * len(tasks))
     schema = dataset_schema(recipe)
     out = Path(job.out)
     identity = RunState(job.family, job.seed, inputs_digest(recipe, grasps))
@@ -240,17 +278,21 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         if state != saved:
             state.save(state_path)
         cursor = DrawCursor.resume(tasks, state.next_draw, [(m.task_id, m.draw_index) for m in metas])
-        missing = max(0, job.n - writer.num_episodes)
+        kept = collections.Counter(m.task_id for m in writer.episodes_meta())
+        quota = Quota(job.per_task, tasks, kept)
+        missing = quota.missing if job.per_task is not None else max(0, job.n - writer.num_episodes)
         budget = job.max_attempts if job.max_attempts is not None else max(8, 4 * missing)
         # per-run folder under staging/ (which the writer's open() clears after a crash)
         stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
-        config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video)
+        config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video,
+                              job.render_after)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary
         if on_attempt is not None:
             on_attempt(summary)  # inputs checked, dataset open: the run starts
-        _loop(job, cursor, config, budget, writer, failed, state, state_path, summary, start, on_attempt)
+        _loop(job, cursor, quota, config, budget, writer, failed, state, state_path, summary, start,
+              on_attempt)
     except KeyboardInterrupt:
         summary.stopped = "interrupted"
     except OSError as err:
@@ -272,22 +314,58 @@ def _close(writer: DatasetWriter, failed: DatasetWriter | None, out: Path) -> No
             raise _output_error(err, out) from None
 
 
-def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: int, writer: DatasetWriter,
-          failed: DatasetWriter | None, state: RunState, state_path: Path, summary: RunSummary, start: float,
-          on_attempt: Callable[[RunSummary], None] | None) -> None:
+class Quota:
+    """``--per-task``: how many kept episodes each selected task still needs (no limit without a quota).
+
+    Attributes:
+        per_task: the quota (``None``: none; the run's target is ``--n`` in all).
+        kept: kept episodes per task so far.
+    """
+
+    def __init__(self, per_task: int | None, tasks: tuple[int, ...], kept: collections.Counter[int]) -> None:
+        self.per_task, self.tasks, self.kept = per_task, tasks, kept
+
+    @property
+    def full(self) -> frozenset[int]:
+        """The tasks whose quota is met (the cursor passes over them)."""
+        if self.per_task is None:
+            return frozenset()
+        return frozenset(t for t in self.tasks if self.kept[t] >= self.per_task)
+
+    @property
+    def missing(self) -> int:
+        """Kept episodes still needed to fill every task's quota."""
+        return sum(max(0, (self.per_task or 0) - self.kept[t]) for t in self.tasks)
+
+    @property
+    def met(self) -> bool:
+        return self.per_task is not None and self.missing == 0
+
+
+def _loop(job: GenerateJob, cursor: DrawCursor, quota: Quota, config: WorkerConfig, budget: int,
+          writer: DatasetWriter, failed: DatasetWriter | None, state: RunState, state_path: Path,
+          summary: RunSummary, start: float, on_attempt: Callable[[RunSummary], None] | None) -> None:
     submitted = 0
     shutil.rmtree(config.stage_dir, ignore_errors=True)
     try:
         with AttemptPool(config, job.workers) as pool:
             while True:
                 while pool.in_flight < pool.capacity and submitted < budget:
-                    pool.submit(*cursor.take())
+                    nxt = cursor.take(skip=quota.full)
+                    if nxt is None:
+                        break
+                    pool.submit(*nxt)
                     submitted += 1
                 if pool.in_flight == 0:
-                    summary.stopped = "max attempts reached"
+                    summary.stopped = "target reached" if quota.met else "max attempts reached"
                     return
                 done = pool.next_done()
                 result = done.result
+                if result.task_id in quota.full:  # ran ahead of its task's quota: a one-worker run never
+                    if done.staged is not None:   # makes this attempt, so it leaves no trace
+                        shutil.rmtree(done.staged, ignore_errors=True)
+                    submitted -= 1
+                    continue
                 t0 = time.perf_counter()
                 with sigint_deferred():  # a commit and the cursor recording it happen together or not at all
                     # the count goes into the commit itself, so a kill -9 before the state file is saved
@@ -307,11 +385,13 @@ def _loop(job: GenerateJob, cursor: DrawCursor, config: WorkerConfig, budget: in
                                                           result.draw + 1)
                     state.attempts += 1
                     state.save(state_path)
+                if result.kept:
+                    quota.kept[result.task_id] += 1
                 summary.add(result, time.perf_counter() - t0)
                 summary.wall = time.perf_counter() - start
                 if on_attempt is not None:
                     on_attempt(summary)
-                if summary.total_kept >= job.n:
+                if quota.met or (quota.per_task is None and summary.total_kept >= job.n):
                     summary.stopped = "target reached"
                     return
     finally:

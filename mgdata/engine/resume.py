@@ -15,7 +15,7 @@ Example::
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,17 +39,23 @@ class DrawCursor:
         for t in self.tasks:
             self.next_draw.setdefault(t, 0)
 
-    def peek(self) -> tuple[int, int]:
-        """The next (task, draw) without consuming it."""
-        pos = min(range(len(self.tasks)), key=lambda i: (self.next_draw[self.tasks[i]], i))
+    def peek(self, skip: Collection[int] = ()) -> tuple[int, int] | None:
+        """The next (task, draw) without consuming it, passing over the tasks in ``skip`` (``None``: every
+        task is skipped)."""
+        open_ = [i for i in range(len(self.tasks)) if self.tasks[i] not in skip]
+        if not open_:
+            return None
+        pos = min(open_, key=lambda i: (self.next_draw[self.tasks[i]], i))
         task = self.tasks[pos]
         return task, self.next_draw[task]
 
-    def take(self) -> tuple[int, int]:
-        """Consume and return the next (task, draw)."""
-        task, draw = self.peek()
-        self.next_draw[task] = draw + 1
-        return task, draw
+    def take(self, skip: Collection[int] = ()) -> tuple[int, int] | None:
+        """Consume and return the next (task, draw), passing over the tasks in ``skip`` (tasks whose
+        ``--per-task`` quota is met); ``None`` when every task is skipped."""
+        nxt = self.peek(skip)
+        if nxt is not None:
+            self.next_draw[nxt[0]] = nxt[1] + 1
+        return nxt
 
     @classmethod
     def resume(

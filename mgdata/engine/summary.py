@@ -107,7 +107,8 @@ class ProgressView:
         if not self._started:
             self._started = True
             self._progress.start()
-        self._progress.update(self._task, completed=summary.total_kept, attempts=summary.attempts,
+        self._progress.update(self._task, total=summary.target, completed=summary.total_kept,
+                              attempts=summary.attempts,
                               yield_=f"{summary.yield_:.0%}" if summary.attempts else "–",
                               eta=_fmt_time(summary.eta()))
 

@@ -3,8 +3,11 @@
 Each attempt is recorded into its own staged-episode folder (``EpisodeStager``); the main process appends
 staged folders to the dataset in the order the attempts were *submitted* (the cursor's canonical order), so
 the dataset is byte-identical whatever the number of workers. A worker keeps a few executors (scene,
-planner, renderer) for recently used tasks. Worker processes are started with ``spawn`` (a fresh interpreter:
-no inherited OpenGL or OMPL state) and ignore Ctrl-C; the main process handles it and terminates them.
+planner, renderer) for recently used tasks. With ``render_after`` (the default) attempts run without
+cameras and only recorded episodes are rendered, from their physics states, when they end
+(:class:`~mgdata.engine.deferred.DeferredRenderSink`): the same bytes, no rendering for dropped attempts.
+Worker processes are started with ``spawn`` (a fresh interpreter: no inherited OpenGL or OMPL state) and
+ignore Ctrl-C; the main process handles it and terminates them.
 
 The pool fails fast: a worker whose start-up raises (a bad input the main process did not catch) hands that
 error to the first attempt it is given, which re-raises it in the main process; a worker that dies (killed,
@@ -32,13 +35,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 
+from mgdata.engine.deferred import DeferredRenderSink
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import WorkerError
 from mgdata.grasps.db import GraspDB
+from mgdata.record.episode import EpisodeSink
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.video import VideoSettings
+from mgdata.sim.renderer import CameraRig
 
 _PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
@@ -55,6 +61,7 @@ class WorkerConfig:
     base_seed: int
     keep_failed: bool
     video: VideoSettings
+    render_after: bool = True
 
 
 @dataclass(frozen=True)
@@ -75,33 +82,50 @@ class Worker:
         self.recipe = load_family_recipe(config.recipe_path)
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
-        self._executors: collections.OrderedDict[int, Executor] = collections.OrderedDict()
+        self._executors: collections.OrderedDict[int, tuple[Executor, CameraRig | None]] = \
+            collections.OrderedDict()
 
-    def _executor(self, task_id: int) -> Executor:
+    def _executor(self, task_id: int) -> tuple[Executor, CameraRig | None]:
+        """The task's executor and, when rendering after the gate, the rig that renders its episodes."""
         if task_id in self._executors:
             self._executors.move_to_end(task_id)
             return self._executors[task_id]
         while len(self._executors) >= EXECUTOR_CACHE:
-            self._executors.popitem(last=False)[1].close()
+            self._close(*self._executors.popitem(last=False)[1])
+        after = self.config.render_after
         task = base_task(self.recipe, task_id, self.config.grasps_dir)
-        ex = Executor(task, self.recipe, grasps=self.grasps,
-                      base_seed=self.config.base_seed)
-        self._executors[task_id] = ex
-        return ex
+        ex = Executor(task, self.recipe, grasps=self.grasps, base_seed=self.config.base_seed,
+                      render=not after)
+        rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) if after else None
+        self._executors[task_id] = (ex, rig)
+        return ex, rig
 
     def run(self, task_id: int, draw: int) -> AttemptDone:
         path = self.config.stage_dir / f"task{task_id:04d}-draw{draw:06d}"
         stager = EpisodeStager(path, self.schema, self.config.video)
+        ex, rig = self._executor(task_id)
+        deferred = DeferredRenderSink(stager, rig) if rig is not None else None
+        sink: EpisodeSink = deferred if deferred is not None else stager
         try:
-            result = self._executor(task_id).run(draw, stager, keep_failed=self.config.keep_failed)
+            result = ex.run(draw, sink, keep_failed=self.config.keep_failed)
         except BaseException:
-            stager.discard_episode()
+            sink.discard_episode()
             raise
+        if deferred is not None:  # the executor timed the deferred work as writing: split it up
+            spent = deferred.timings
+            result.timings.writing -= spent.total
+            result.timings.add(spent)
         return AttemptDone(result, path if stager.done else None)
 
+    @staticmethod
+    def _close(ex: Executor, rig: CameraRig | None) -> None:
+        ex.close()
+        if rig is not None:
+            rig.close()
+
     def close(self) -> None:
-        for ex in self._executors.values():
-            ex.close()
+        for ex, rig in self._executors.values():
+            self._close(ex, rig)
         self._executors.clear()
 
 

@@ -28,6 +28,11 @@ VIDEO_FILE_MB = 200
 # also starts a new video file after this many seconds (1200 frames, ~6 jar demos at 20 Hz): at 300 s the
 # main process's appends cost 12 s of a 2-worker 40-demo run, at 60 s 8 s.
 VIDEO_FILE_SECONDS = 60.0
+# Appending rewrites the current data file and episodes file (parquet cannot be appended in place), so a
+# commit costs as much as those files hold: mgdata also starts new ones after this many episodes, which keeps
+# every commit's cost bounded whatever the dataset's size (benchmarks/bench_append.py: the commit at episode
+# 1,000 costs what the one at episode 1 does).
+EPISODES_PER_FILE = 20
 
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"

@@ -49,7 +49,8 @@ def spec_from_dict(data: Mapping[str, Any], where: str) -> SafetySpec:
 
 def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | None, *, chunks_size: int,
                data_file_mb: int, video_file_mb: int, video_file_seconds: float,
-               hold_steps: int | None = None, kept_only: bool = False) -> dict[str, Any]:
+               hold_steps: int | None = None, kept_only: bool = False,
+               episodes_per_file: int | None = None) -> dict[str, Any]:
     """A new dataset's ``info.json`` (no episodes yet).
 
     ``hold_steps`` (the gate's success window) and ``kept_only`` (the dataset promises only kept episodes)
@@ -76,12 +77,30 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
         "features": features,
         "mgdata": {"format": MGDATA_FORMAT, "spec": spec_to_dict(spec) if spec else None,
                    "hold_steps": hold_steps, "kept_only": kept_only,
-                   "video_file_seconds": video_file_seconds, "attempts": None, "sha256": {}},
+                   "video_file_seconds": video_file_seconds, "episodes_per_file": episodes_per_file,
+                   "attempts": None, "sha256": {}},
     }
 
 
+_MARK = "\0sha256\0"
+
+
 def dump_json(data: Any) -> str:
-    return json.dumps(data, indent=4, ensure_ascii=False, allow_nan=False) + "\n"
+    """``data`` as indented JSON (``json.dumps(data, indent=4)``, non-ASCII kept, no NaN) plus a newline.
+
+    ``info.json``'s checksum block (``mgdata.sha256``, one entry per dataset file) is written by a join of
+    its entries instead of the (pure-Python) indenting encoder, with the same bytes, so rewriting
+    ``info.json`` at every commit stays cheap as the dataset grows.
+    """
+    mg = data.get("mgdata") if isinstance(data, dict) else None
+    sums = mg.get("sha256") if isinstance(mg, dict) else None
+    if not isinstance(sums, dict) or not sums or not all(isinstance(v, str) for v in sums.values()):
+        return json.dumps(data, indent=4, ensure_ascii=False, allow_nan=False) + "\n"
+    text = json.dumps({**data, "mgdata": {**mg, "sha256": _MARK}}, indent=4, ensure_ascii=False,
+                      allow_nan=False)
+    entries = ",\n".join(f"{' ' * 12}{json.dumps(k, ensure_ascii=False)}: {json.dumps(v, ensure_ascii=False)}"
+                         for k, v in sums.items())
+    return text.replace(json.dumps(_MARK), "{\n" + entries + "\n" + " " * 8 + "}", 1) + "\n"
 
 
 def read_info(path: Path) -> dict[str, Any]:
@@ -106,7 +125,8 @@ def read_info(path: Path) -> dict[str, Any]:
         raise DatasetError(f"{path}: no mgdata block of format {MGDATA_FORMAT} (not written by mgdata)")
     typed = {"fps": int, "total_episodes": int, "total_frames": int, "total_tasks": int, "chunks_size": int,
              "features": dict, "splits": dict, "data_path": str, "mgdata.sha256": dict,
-             "mgdata.attempts": (int, type(None)), "mgdata.video_file_seconds": (int, float)}
+             "mgdata.attempts": (int, type(None)), "mgdata.video_file_seconds": (int, float),
+             "mgdata.episodes_per_file": (int, type(None))}
     for key, kind in typed.items():
         block, _, name = key.rpartition(".")
         table = mg if block else info

@@ -1,9 +1,14 @@
-"""Feature statistics in LeRobot's format (min, max, mean, std, count, q01 … q99), computed exactly.
+"""Feature statistics in LeRobot's format (min, max, mean, std, count, q01 … q99).
 
-Numeric features: over all frames, per dimension (quantiles as ``np.quantile``'s default linear method).
+Per episode, numeric features are exact over the episode's frames, per dimension (quantiles as
+``np.quantile``'s default linear method). Dataset-level numeric stats are merged from the episodes' stats
+one episode at a time (:func:`merge_stats`, so appending an episode costs the same at episode 1 and
+episode 10,000): count, min and max exactly, mean and std by the pairwise update of Chan et al. (equal to
+the direct computation up to float rounding), and each quantile as the count-weighted mean of the
+episodes' quantiles (an approximation: exact quantiles of a growing dataset need all of its values).
 Images: from 256-bin histograms per channel, which are exact for uint8 and cheap to add up across
-episodes; values are normalised to [0, 1] and shaped (3, 1, 1), and ``count`` is the number of frames,
-as LeRobot writes them.
+episodes, so dataset image stats stay exact; values are normalised to [0, 1] and shaped (3, 1, 1), and
+``count`` is the number of frames, as LeRobot writes them.
 """
 
 from __future__ import annotations
@@ -79,6 +84,30 @@ def numeric_stats(values: np.ndarray) -> FeatureStats:
     for (key, _), row in zip(QUANTILES, qs, strict=True):
         stats[key] = row
     return {k: stats[k] for k in STAT_KEYS}
+
+
+def merge_stats(total: FeatureStats | None, episode: FeatureStats) -> FeatureStats:
+    """Numeric dataset stats after one more episode, from the stats so far (``None``: no episode yet) and
+    the episode's own (module docstring). Folding the episodes' stats in episode order always gives the
+    same bytes, so a resumed writer and the validator reproduce the stored dataset stats exactly."""
+    if total is None:
+        return {k: np.asarray(episode[k]).copy() for k in STAT_KEYS}
+    na, nb = float(total["count"][0]), float(episode["count"][0])
+    n = na + nb
+    mean_a, mean_b = np.asarray(total["mean"], np.float64), np.asarray(episode["mean"], np.float64)
+    delta = mean_b - mean_a
+    m2 = (np.asarray(total["std"], np.float64) ** 2 * na + np.asarray(episode["std"], np.float64) ** 2 * nb
+          + delta**2 * (na * nb / n))
+    out = {
+        "min": np.minimum(total["min"], episode["min"]),
+        "max": np.maximum(total["max"], episode["max"]),
+        "mean": mean_a + delta * (nb / n),
+        "std": np.sqrt(m2 / n),
+        "count": np.array([int(na + nb)], np.int64),
+    }
+    for key, _ in QUANTILES:
+        out[key] = (np.asarray(total[key], np.float64) * na + np.asarray(episode[key], np.float64) * nb) / n
+    return {k: out[k] for k in STAT_KEYS}
 
 
 def stats_to_json(stats: Mapping[str, FeatureStats]) -> dict[str, dict[str, list]]:

@@ -21,7 +21,7 @@ from mgdata.record.audit import SafetyAuditor
 from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
 from mgdata.record.reader import DatasetReader
-from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, numeric_stats
+from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, merge_stats, numeric_stats
 from mgdata.record.video import check_decodes, decode, probe
 
 _ERRORS = (MgdataError, OSError, ValueError, KeyError, TypeError, IndexError, pa.ArrowException)
@@ -218,13 +218,27 @@ def _ts_summary(idx: np.ndarray) -> str:
 
 def _check_stats(reader: DatasetReader, records: list[EpisodeRecord], values: dict[str, list[np.ndarray]],
                  report: ValidationReport) -> None:
+    """Per episode, the stats equal the ones computed from its frames (pixel histograms for images); the
+    dataset stats are the episodes' stats merged in order (:func:`merge_stats`: what the writer stores),
+    and their count, min, max, mean and std equal the ones computed from all frames at once."""
     if not records:
         return
     where = reader.files.path(layout.STATS_PATH)
     stored = reader.stats()
     s = reader.schema
     hist_sum = {k: sum(r.histograms[k] for r in records) for k in records[0].histograms}
-    complete = all(sum(len(v) for v in values[c.key]) == reader.num_frames for c in layout.all_columns(s))
+    complete = all(len(values[c.key]) == len(records) and
+                   sum(len(v) for v in values[c.key]) == reader.num_frames for c in layout.all_columns(s))
+    for rec in records:
+        for key, image in stats_features(s):
+            problem = _stats_sanity(rec.stats[key], image, rec.length)
+            if problem:
+                report.problems.append(f"episode {rec.index}: stats/{key}: {problem}")
+            elif image and not _close(rec.stats[key], image_stats(rec.histograms[key], rec.length)):
+                report.problems.append(f"episode {rec.index}: stats/{key} differ from its pixel histogram")
+            elif not image and complete and \
+                    not _close(rec.stats[key], numeric_stats(values[key][rec.index])):
+                report.problems.append(f"episode {rec.index}: stats/{key} differ from its frames")
     for key, image in stats_features(s):
         fs = stored.get(key)
         if fs is None:
@@ -235,20 +249,21 @@ def _check_stats(reader: DatasetReader, records: list[EpisodeRecord], values: di
             report.problems.append(f"{where}: {key}: {problem}")
             continue
         if image:
-            want = image_stats(hist_sum[key], reader.num_frames)
-        elif complete:
-            want = numeric_stats(np.concatenate(values[key]))
-        else:
-            continue  # unreadable data was reported already
-        if not _close(fs, want):
-            report.problems.append(f"{where}: {key} stats differ from the ones recomputed from the data")
-    for rec in records:
-        for key, image in stats_features(s):
-            problem = _stats_sanity(rec.stats[key], image, rec.length)
-            if problem:
-                report.problems.append(f"episode {rec.index}: stats/{key}: {problem}")
-            elif image and not _close(rec.stats[key], image_stats(rec.histograms[key], rec.length)):
-                report.problems.append(f"episode {rec.index}: stats/{key} differ from its pixel histogram")
+            if not _close(fs, image_stats(hist_sum[key], reader.num_frames)):
+                report.problems.append(f"{where}: {key} stats differ from the ones of the pixel histograms")
+            continue
+        merged = None
+        for rec in records:
+            merged = merge_stats(merged, rec.stats[key])
+        assert merged is not None
+        if not _close(fs, merged):
+            report.problems.append(f"{where}: {key} stats differ from the episodes' stats merged in order")
+        elif complete and not _close(fs, numeric_stats(np.concatenate(values[key])), keys=_MOMENTS):
+            report.problems.append(f"{where}: {key} count, min, max, mean or std differ from the ones "
+                                   "computed from the data")
+
+
+_MOMENTS = ("min", "max", "mean", "std", "count")
 
 
 def _stats_sanity(fs: FeatureStats, image: bool, count: int) -> str | None:
@@ -276,9 +291,9 @@ def _stats_sanity(fs: FeatureStats, image: bool, count: int) -> str | None:
     return None
 
 
-def _close(a: FeatureStats, b: FeatureStats) -> bool:
+def _close(a: FeatureStats, b: FeatureStats, keys: tuple[str, ...] = STAT_KEYS) -> bool:
     return all(np.allclose(np.asarray(a[k], np.float64), np.asarray(b[k], np.float64), rtol=1e-6, atol=1e-9)
-               for k in STAT_KEYS)
+               for k in keys)
 
 
 def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:

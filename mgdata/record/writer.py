@@ -6,7 +6,9 @@ camera's current mp4, appends its rows to the current data file, adds its row to
 rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
 to ``meta/scenes.parquet``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
 process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
-size limits (data 100 MB, video 200 MB) and, for video, after ``video_file_seconds``.
+size limits (data 100 MB, video 200 MB), for video after ``video_file_seconds``, and for data and episodes
+files after ``episodes_per_file`` episodes, so a commit costs the same at episode 1 and episode 10,000
+(dataset stats are merged incrementally too, :func:`~mgdata.record.stats.merge_stats`).
 
 Example::
 
@@ -51,7 +53,7 @@ from mgdata.record.metafiles import (
 from mgdata.record.reader import DatasetReader, read_parquet
 from mgdata.record.scenes import Scenes
 from mgdata.record.staging import EpisodeStager, StagedEpisode
-from mgdata.record.stats import FeatureStats, image_stats, numeric_stats, stats_to_json
+from mgdata.record.stats import FeatureStats, image_stats, merge_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
 from mgdata.spec import SafetySpec
 
@@ -75,7 +77,7 @@ class DatasetWriter:
         self._frame_cols = layout.frame_columns(self.schema)
         self._records: list[EpisodeRecord] = []
         self._tasks: list[str] = []
-        self._values: dict[str, list[np.ndarray]] = {c.key: [] for c in layout.all_columns(self.schema)}
+        self._numeric: dict[str, FeatureStats] = {}  # dataset stats of the numeric features (merged)
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
         self._scenes = Scenes([])
@@ -90,7 +92,8 @@ class DatasetWriter:
                chunks_size: int = layout.CHUNKS_SIZE, data_file_mb: int = layout.DATA_FILE_MB,
                video_file_mb: int = layout.VIDEO_FILE_MB,
                video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
-               kept_only: bool = False, mgdata: dict | None = None) -> DatasetWriter:
+               kept_only: bool = False, mgdata: dict | None = None,
+               episodes_per_file: int | None = layout.EPISODES_PER_FILE) -> DatasetWriter:
         """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
         are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
         held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
@@ -115,7 +118,7 @@ class DatasetWriter:
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
-                          hold_steps=hold_steps, kept_only=kept_only)
+                          hold_steps=hold_steps, kept_only=kept_only, episodes_per_file=episodes_per_file)
         info["mgdata"].update({k: v for k, v in (mgdata or {}).items() if k not in info["mgdata"]})
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
@@ -172,13 +175,10 @@ class DatasetWriter:
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
-        for ref in sorted({r.data for r in self._records}):
-            table = reader.data_table(ref)
-            for col in layout.all_columns(self.schema):
-                self._values[col.key].append(col.from_arrow(table.column(col.key)))
         for rec in self._records:
             for key, hist in rec.histograms.items():
                 self._hist_sum[key] += hist
+            self._numeric = _merged(self._numeric, rec.stats, self.schema)
 
     # --- queries -----------------------------------------------------------------------------------------
 
@@ -298,8 +298,9 @@ class DatasetWriter:
                                     schema=layout.data_arrow_schema(s))
         data_ref = last.data if last else layout.FileRef()
         old_data = self.root / layout.data_path(data_ref)
-        if last and old_data.stat().st_size + (staged.path / "frames.parquet").stat().st_size > \
-                info["data_files_size_in_mb"] * _MB:
+        per_file = info["mgdata"].get("episodes_per_file") or ep + 1  # absent in older datasets: no limit
+        if last and (old_data.stat().st_size + (staged.path / "frames.parquet").stat().st_size >
+                     info["data_files_size_in_mb"] * _MB or self._episodes_in_data_file() >= per_file):
             data_ref = data_ref.next(info["chunks_size"])
         elif last:
             rows = pa.concat_tables([pq.read_table(old_data, schema=rows.schema), rows])
@@ -336,15 +337,16 @@ class DatasetWriter:
         ep_stats: dict[str, FeatureStats] = {
             key: image_stats(staged.histograms[key], length) if image else numeric_stats(values[key])
             for key, image in stats_features(s)}
-        all_values = {k: np.concatenate([*self._values[k], values[k]]) for k in self._values}
+        numeric = _merged(self._numeric, ep_stats, s)
         hist_sum = {k: self._hist_sum[k] + staged.histograms[k] for k in self._hist_sum}
         total = start + length
-        ds_stats = {key: image_stats(hist_sum[key], total) if image else numeric_stats(all_values[key])
+        ds_stats = {key: image_stats(hist_sum[key], total) if image else numeric[key]
                     for key, image in stats_features(s)}
 
         # episodes table (rolls over like data files)
         meta_ref, ep_table = (last.meta_file, self._episodes_table) if last else (layout.FileRef(), None)
-        if ep_table is not None and ep_table.nbytes > info["data_files_size_in_mb"] * _MB:
+        if ep_table is not None and (ep_table.nbytes > info["data_files_size_in_mb"] * _MB
+                                     or ep_table.num_rows >= per_file):
             meta_ref, ep_table = meta_ref.next(info["chunks_size"]), None
         record = EpisodeRecord(ep, length, staged.task, data_ref, start, spans, meta_ref, staged.meta,
                                ep_stats, dict(staged.histograms), scene)
@@ -361,7 +363,16 @@ class DatasetWriter:
                         splits={"train": f"0:{ep + 1}"})
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
-        return record, tasks, values, staged.histograms, ep_table, new_info, scenes
+        return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes
+
+    def _episodes_in_data_file(self) -> int:
+        """Episodes in the current (last) data file."""
+        last, n = self._records[-1].data, 0
+        for rec in reversed(self._records):
+            if rec.data != last:
+                break
+            n += 1
+        return n
 
     def _install(self, tx: Transaction, state: tuple) -> None:
         """Commit ``tx`` and take its new state in memory, as one step that Ctrl-C cannot split.
@@ -377,12 +388,11 @@ class DatasetWriter:
                 raise
             self._apply(*state)
 
-    def _apply(self, record: EpisodeRecord, tasks: list[str], values: dict[str, np.ndarray],
+    def _apply(self, record: EpisodeRecord, tasks: list[str], numeric: dict[str, FeatureStats],
                hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: Scenes) -> None:
         self._records.append(record)
         self._tasks = tasks
-        for key, v in values.items():
-            self._values[key].append(v)
+        self._numeric = numeric
         for key, h in hists.items():
             self._hist_sum[key] += h
         self._episodes_table = ep_table
@@ -417,3 +427,9 @@ class DatasetWriter:
                  tb: TracebackType | None) -> None:
         self.close()
 
+
+def _merged(numeric: dict[str, FeatureStats], episode: Mapping[str, FeatureStats],
+            schema: DatasetSchema) -> dict[str, FeatureStats]:
+    """The numeric dataset stats with one more episode's stats merged in (:func:`merge_stats`)."""
+    return {key: merge_stats(numeric.get(key), episode[key]) for key, image in stats_features(schema)
+            if not image}

@@ -101,15 +101,29 @@ class CameraRig:
     """Renders ``cameras`` of ``scene`` at ``size``×``size`` (default: the task's ``image_size``).
 
     Attributes:
+        model, data: what it renders (the scene's, unless built with :meth:`of_model`).
         cameras: the camera names, in render order.
         size: image side in pixels.
     """
 
     def __init__(self, scene: Scene, cameras: Sequence[str] = CAMERA_NAMES, size: int | None = None) -> None:
-        self.scene = scene
+        self._setup(scene.model, scene.data, cameras, int(size or scene.task.image_size), scene.sim.render)
+
+    @classmethod
+    def of_model(cls, model: mujoco.MjModel, cameras: Sequence[str], size: int,
+                 config: RenderConfig) -> CameraRig:
+        """A rig for a bare model (e.g. a dataset's stored MJB scene) without a :class:`Scene`; it renders
+        its own ``MjData`` unless :meth:`render` is given one."""
+        rig = cls.__new__(cls)
+        rig._setup(model, mujoco.MjData(model), cameras, int(size), config)
+        return rig
+
+    def _setup(self, model: mujoco.MjModel, data: mujoco.MjData, cameras: Sequence[str], size: int,
+               config: RenderConfig) -> None:
+        self._context: mujoco.MjrContext | None = None
+        self.model, self.data = model, data
         self.cameras = tuple(cameras)
-        self.size = int(size or scene.task.image_size)
-        model = scene.model
+        self.size = size
         unknown = [c for c in self.cameras if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, c) < 0]
         if unknown or not self.cameras:
             raise SceneError(
@@ -117,12 +131,11 @@ class CameraRig:
             )
         if not 8 <= self.size <= MAX_SIZE:
             raise SceneError(f"image size {self.size} outside 8…{MAX_SIZE}")
-        config = scene.sim.render
         _check_gl_backend()
         self._gl: Any = mujoco.GLContext(self.size, self.size)
         self._gl.make_current()
-        self._context: mujoco.MjrContext | None = mujoco.MjrContext(
-            context_model(model, self.size, config), mujoco.mjtFontScale.mjFONTSCALE_100)
+        self._context = mujoco.MjrContext(context_model(model, self.size, config),
+                                          mujoco.mjtFontScale.mjFONTSCALE_100)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
@@ -134,12 +147,13 @@ class CameraRig:
         self._options = [camera_option(model, cam, config) for cam in self._ids]
         self._buffer = np.empty((self.size, self.size, 3), dtype=np.uint8)
 
-    def render(self) -> dict[str, np.ndarray]:
-        """One RGB image (size, size, 3) uint8 per camera, of the scene's current ``data``."""
+    def render(self, data: mujoco.MjData | None = None) -> dict[str, np.ndarray]:
+        """One RGB image (size, size, 3) uint8 per camera, of ``data`` (default: the scene's current data;
+        positions must be computed, e.g. by ``mj_forward``)."""
         if self._context is None:
             raise SceneError("CameraRig.render() called after close()")
         self._gl.make_current()
-        model, data = self.scene.model, self.scene.data
+        model, data = self.model, self.data if data is None else data
         out: dict[str, np.ndarray] = {}
         for name, cam, option in zip(self.cameras, self._ids, self._options, strict=True):
             self._camera.fixedcamid = cam
@@ -152,7 +166,7 @@ class CameraRig:
 
     def close(self) -> None:
         """Free the GL context (idempotent)."""
-        if self._context is not None:
+        if getattr(self, "_context", None) is not None:
             self._gl.make_current()
             self._context.free()
             self._context = None

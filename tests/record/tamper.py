@@ -18,7 +18,7 @@ from mgdata.record import layout
 from mgdata.record.commit import sha256_file
 from mgdata.record.metadata import meta_to_columns
 from mgdata.record.reader import DatasetReader
-from mgdata.record.stats import numeric_stats, stats_from_json, stats_to_json
+from mgdata.record.stats import merge_stats, numeric_stats, stats_from_json, stats_to_json
 
 
 def _rehash(root: Path, *rels: str) -> None:
@@ -61,10 +61,11 @@ def edit_column(root: Path, key: str, episode: int, change: Callable[[np.ndarray
 
     meta_rel = _edit_episode_row(root, episode, set_stats)
     reader = DatasetReader(root)
-    every = np.concatenate([col.from_arrow(reader.data_table(ref).column(key))
-                            for ref in sorted({r.data for r in reader.records()})])
+    merged = None
+    for r in reader.records():  # the dataset stats are the episodes' merged in order
+        merged = merge_stats(merged, r.stats[key])
     stats = stats_from_json(json.loads((root / layout.STATS_PATH).read_text()))
-    stats[key] = numeric_stats(every)
+    stats[key] = merged
     (root / layout.STATS_PATH).write_text(json.dumps(stats_to_json(stats), indent=4))
     _rehash(root, rel, meta_rel, layout.STATS_PATH)
 

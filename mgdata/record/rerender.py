@@ -1,0 +1,224 @@
+"""``mgdata render``: a new dataset with other cameras, image size or codec, drawn from a dataset's own
+physics states, without re-planning or re-simulating.
+
+Every frame of the source stores the MuJoCo state it was observed in (``sim.physics_state``) and every
+episode names its compiled scene (``meta/scenes.parquet``), so each frame is restored
+(:func:`~mgdata.record.physics.set_physics_state`) and drawn with the camera rig of ``mgdata.sim``. Everything
+else is copied: state, action, the safety columns, the physics states, the scenes, the episode metadata and
+the gate's promises (``hold_steps``, ``kept_only``), the generator identity and the attempt count. Only the
+videos and their statistics are new. This is what a VLA fine-tuning at 224² needs from a 256² dataset, and
+what LIBERO and robomimic users do with their states files.
+
+The new dataset is built in ``<out>.partial`` and renamed to ``out`` when every episode is in, so a folder
+named ``out`` is always complete; running the same command again after an interruption continues the
+partial one (each episode is committed whole).
+
+Example::
+
+    job = RenderJob(Path("datasets/jar"), Path("datasets/jar_224"), size=224, cameras=("front", "wrist"))
+    summary = rerender(job)
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import mujoco
+
+from mgdata.errors import DatasetError, OutputError
+from mgdata.record import layout
+from mgdata.record.episode import DatasetSchema, Frame
+from mgdata.record.metafiles import read_info
+from mgdata.record.physics import STATE_SPEC, model_from_bytes, set_physics_state
+from mgdata.record.reader import DatasetReader
+from mgdata.record.video import VideoSettings
+from mgdata.record.writer import DatasetWriter
+from mgdata.sim.config import load_sim_config
+from mgdata.sim.renderer import MAX_SIZE, CameraRig
+
+
+@dataclass(frozen=True)
+class RenderJob:
+    """What to re-render.
+
+    Attributes:
+        source: the dataset to read (it must store physics states).
+        out: the new dataset's folder (must not exist).
+        size: image side in pixels (``None``: the source's).
+        cameras: camera names, in output order (``None``: the source's).
+        codec: video codec (``None``: the source's, with its settings).
+    """
+
+    source: Path
+    out: Path
+    size: int | None = None
+    cameras: tuple[str, ...] | None = None
+    codec: str | None = None
+
+
+@dataclass(frozen=True)
+class RenderSummary:
+    """What a re-render did: episodes and frames written by this run, the dataset's totals, seconds."""
+
+    out: Path
+    episodes: int
+    frames: int
+    total_episodes: int
+    wall: float
+
+
+def partial_path(out: Path) -> Path:
+    """Where the new dataset is built until it is complete."""
+    return out.with_name(out.name + ".partial")
+
+
+def _check(job: RenderJob, reader: DatasetReader) -> tuple[DatasetSchema, VideoSettings]:
+    """The new dataset's schema and video settings, or one error saying what is wrong."""
+    src = reader.schema
+    if not src.physics_state_size or reader.physics_spec is None:
+        raise DatasetError(f"{job.source}: stores no physics states (written without a simulator), so it "
+                           "cannot be re-rendered")
+    if reader.physics_spec != STATE_SPEC:
+        raise DatasetError(f"{job.source}: physics states of mjtState spec {reader.physics_spec}, this "
+                           f"mgdata restores spec {STATE_SPEC}")
+    if not reader.num_episodes:
+        raise DatasetError(f"{job.source}: the dataset has no episodes to render")
+    size = src.image_height if job.size is None else job.size
+    if not 8 <= size <= MAX_SIZE:
+        raise DatasetError(f"--size {size}: expected an image side in pixels from 8 to {MAX_SIZE}")
+    cameras = src.cameras if job.cameras is None else job.cameras
+    if not cameras or len(set(cameras)) != len(cameras):
+        raise DatasetError(f"--cameras {','.join(cameras)}: expected one or more distinct camera names")
+    model = _model(reader.scene_mjb(0), job.source)
+    known = [model.camera(i).name for i in range(model.ncam)]
+    unknown = [c for c in cameras if c not in known]
+    if unknown:
+        raise DatasetError(f"unknown camera(s) {', '.join(unknown)}; the dataset's scenes have cameras "
+                           f"{', '.join(known)}")
+    video = reader.video if job.codec in (None, reader.video.codec) else \
+        VideoSettings(codec=job.codec, gop=reader.video.gop)
+    return replace(src, cameras=tuple(cameras), image_height=size, image_width=size), video
+
+
+def _origin(job: RenderJob, schema: DatasetSchema, video: VideoSettings) -> dict[str, Any]:
+    """The ``mgdata.rendered_from`` record of the new dataset (also how a partial one is recognised)."""
+    return {"source": str(Path(job.source).resolve()), "cameras": list(schema.cameras),
+            "size": schema.image_height, "codec": video.codec}
+
+
+def _open(job: RenderJob, reader: DatasetReader, schema: DatasetSchema,
+          video: VideoSettings) -> DatasetWriter:
+    """Continue the partial dataset of the same job, or start a new one."""
+    part = partial_path(job.out)
+    origin = _origin(job, schema, video)
+    if (part / layout.INFO_PATH).exists():
+        if read_info(part / layout.INFO_PATH)["mgdata"].get("rendered_from") == origin:
+            return DatasetWriter.open(part, schema)
+        raise OutputError(f"{part}: left by a render with other settings; delete it or repeat that command")
+    if part.exists() and any(p.name != layout.WORK_DIR for p in part.iterdir()):
+        raise OutputError(f"{part}: exists and is not a dataset being rendered; delete it first")
+    info = reader.info
+    extra = {"rendered_from": origin}
+    if info["mgdata"].get("generator") is not None:
+        extra["generator"] = info["mgdata"]["generator"]
+    writer = DatasetWriter.create(
+        part, schema, codec=video.codec, crf=video.crf, preset=video.preset, gop=video.gop, spec=reader.spec,
+        chunks_size=int(info["chunks_size"]), data_file_mb=int(info["data_files_size_in_mb"]),
+        video_file_mb=int(info["video_files_size_in_mb"]),
+        video_file_seconds=float(info["mgdata"]["video_file_seconds"]), hold_steps=reader.hold_steps,
+        episodes_per_file=info["mgdata"].get("episodes_per_file"),
+        kept_only=reader.kept_only, mgdata=extra)
+    if writer.video != video:
+        writer.close()
+        raise DatasetError(f"video settings {video} do not survive info.json")
+    return writer
+
+
+def _model(mjb: bytes, source: Path) -> mujoco.MjModel:
+    try:
+        return model_from_bytes(mjb)
+    except Exception as err:  # MuJoCo raises ValueError (other version) or its own error types
+        raise DatasetError(f"{source}: a stored scene does not load in MuJoCo {mujoco.__version__} "
+                           f"({err})") from None
+
+
+class _Rigs:
+    """The camera rig of the scene in use (a new GL context when the scene changes)."""
+
+    def __init__(self, cameras: tuple[str, ...], size: int) -> None:
+        self.cameras, self.size = cameras, size
+        self.config = load_sim_config().render
+        self._scene: str | None = None
+        self.rig: CameraRig | None = None
+        self.data: mujoco.MjData | None = None
+
+    def get(self, scene: str, mjb: bytes, source: Path) -> tuple[CameraRig, mujoco.MjData]:
+        if scene != self._scene or self.rig is None or self.data is None:
+            self.close()
+            model = _model(mjb, source)
+            self.rig = CameraRig.of_model(model, self.cameras, self.size, self.config)
+            self.data, self._scene = self.rig.data, scene
+        return self.rig, self.data
+
+    def close(self) -> None:
+        if self.rig is not None:
+            self.rig.close()
+        self.rig, self.data, self._scene = None, None, None
+
+
+def rerender(job: RenderJob, on_episode: Callable[[int, int], None] | None = None) -> RenderSummary:
+    """Write the re-rendered dataset (module docstring); ``on_episode(done, total)`` after each episode.
+
+    Raises:
+        DatasetError: the source is missing, corrupt, stores no physics states, or a camera is unknown.
+        OutputError: ``out`` exists already.
+    """
+    out = Path(job.out)
+    if out.exists():
+        raise OutputError(f"--out {out}: already exists; choose a new folder")
+    reader = DatasetReader(Path(job.source))
+    schema, video = _check(job, reader)
+    start = time.perf_counter()
+    writer = _open(job, reader, schema, video)
+    rigs = _Rigs(schema.cameras, schema.image_height)
+    first, frames = writer.num_episodes, 0
+    try:
+        writer.record_attempts(reader.info["mgdata"].get("attempts") or 0)
+        if on_episode is not None:
+            on_episode(first, reader.num_episodes)
+        for e in range(first, reader.num_episodes):
+            frames += _render_episode(reader, e, writer, rigs)
+            if on_episode is not None:
+                on_episode(e + 1, reader.num_episodes)
+    finally:
+        rigs.close()
+        writer.close()
+    os.replace(partial_path(out), out)
+    return RenderSummary(out, reader.num_episodes - first, frames, reader.num_episodes,
+                         time.perf_counter() - start)
+
+
+def _render_episode(reader: DatasetReader, e: int, writer: DatasetWriter, rigs: _Rigs) -> int:
+    """Render and commit episode ``e`` of ``reader``; returns its frame count."""
+    rec, ep = reader.record(e), reader.episode(e)
+    assert rec.scene is not None and ep.physics_state is not None  # checked by _check for the dataset
+    mjb = reader.scene_mjb(e)
+    rig, data = rigs.get(rec.scene, mjb, reader.root)
+    writer.set_scene(mjb)
+    try:
+        for t in range(ep.length):
+            set_physics_state(rig.model, data, ep.physics_state[t])
+            writer.add_frame(Frame(state=ep.state[t], action=ep.action[t], images=rig.render(data),
+                                   labels=ep.labels[t], dfa_state=ep.dfa_state[t], violated=ep.violated[t],
+                                   engaged=bool(ep.engaged[t]), success=bool(ep.success[t]),
+                                   physics_state=ep.physics_state[t]))
+        writer.end_episode(ep.meta)
+    except BaseException:
+        writer.discard_episode()
+        raise
+    return ep.length

@@ -1,0 +1,49 @@
+"""``--shard i/N`` + ``mgdata merge``: the merged shards are the single run's dataset, byte for byte."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from test_two_pass import _files, low_yield_recipe
+
+from mgdata.engine.generate import GenerateJob, failed_path, generate
+from mgdata.engine.merge import merge_shards
+from mgdata.errors import DatasetError
+
+MGDATA = [str(Path(sys.executable).parent / "mgdata")]
+
+
+def test_shard_needs_a_quota_and_a_valid_index(tmp_path: Path) -> None:
+    for args, message in ((["--shard", "0/2"], "--shard needs --per-task"),
+                          (["--shard", "2/2", "--per-task", "1"], "0 <= i < N"),
+                          (["--shard", "x", "--per-task", "1"], "expected i/N")):
+        proc = subprocess.run([*MGDATA, "generate", "--out", str(tmp_path / "o"), *args], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    proc = subprocess.run([*MGDATA, "merge", str(tmp_path / "nosuch"), "--out", str(tmp_path / "m")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "no such dataset folder" in proc.stderr
+    assert not (tmp_path / "o").exists() and not (tmp_path / "m").exists()
+
+
+@pytest.mark.slow
+def test_merged_shards_equal_one_run(tmp_path: Path) -> None:
+    recipe = low_yield_recipe(tmp_path)
+    common = {"family": "jar", "n": 1, "tasks": (0, 1, 2), "per_task": 2, "recipe": recipe,
+              "keep_failed": True}
+    whole = tmp_path / "whole"
+    assert generate(GenerateJob(out=whole, **common)).stopped == "target reached"
+    shards = []
+    for i in range(2):
+        out = tmp_path / f"shard{i}"
+        assert generate(GenerateJob(out=out, shard=(i, 2), **common)).stopped == "target reached"
+        shards.append(out)
+    merged = tmp_path / "merged"
+    assert merge_shards(shards, merged) == 6
+    assert _files(merged) == _files(whole)
+    assert _files(failed_path(merged)) == _files(failed_path(whole))
+    with pytest.raises(DatasetError, match=r"overlap|shares tasks"):
+        merge_shards([shards[0], shards[0]], tmp_path / "twice")
