@@ -71,7 +71,7 @@ class Physics:
     impratio: float = 10.0
     cone: str = "elliptic"
     liquid_solver: str = "CG"
-    liquid_iterations: int = 30
+    liquid_iterations: int = 100
 
     def __post_init__(self) -> None:
         for key in ("timestep", "control_dt", "impratio", "iterations", "liquid_iterations"):
