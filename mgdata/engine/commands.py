@@ -71,7 +71,7 @@ def register(app: typer.Typer) -> None:
         if bad:
             raise RecipeError(f"--tasks: {family} has tasks 0 … {recipe.tasks.count - 1}, not {bad[0]}")
         sheet = out or Path(f"{family}_tasks.png")
-        if render and (sheet.is_dir() or not sheet.parent.is_dir() if sheet.parent != Path() else False):
+        if render and (sheet.is_dir() or not sheet.parent.is_dir()):
             raise OutputError(f"--out {sheet}: expected a file path in an existing folder")
         console = plain_console()
         rows = []
