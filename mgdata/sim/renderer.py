@@ -17,7 +17,6 @@ Example::
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import os
 from collections.abc import Mapping, Sequence
@@ -97,6 +96,21 @@ def camera_option(model: mujoco.MjModel, camera: int, config: RenderConfig) -> m
     return option
 
 
+_ORPHANS: list[tuple[Any, Any]] = []
+"""(GL context, MjrContext) of rigs garbage-collected without :meth:`CameraRig.close`. A finalizer runs at any
+allocation, possibly in the middle of another rig's frame: switching the current GL context there would make
+that rig draw into the wrong one. So finalizers only queue their contexts; a rig frees them at a safe point
+(before it makes its own context current)."""
+
+
+def _free_orphans() -> None:
+    while _ORPHANS:
+        gl, context = _ORPHANS.pop()
+        gl.make_current()
+        context.free()
+        gl.free()
+
+
 class CameraRig:
     """Renders ``cameras`` of ``scene`` at ``size``×``size`` (default: the task's ``image_size``).
 
@@ -132,6 +146,7 @@ class CameraRig:
         if not 8 <= self.size <= MAX_SIZE:
             raise SceneError(f"image size {self.size} outside 8…{MAX_SIZE}")
         _check_gl_backend()
+        _free_orphans()
         self._gl: Any = mujoco.GLContext(self.size, self.size)
         self._gl.make_current()
         self._context = mujoco.MjrContext(context_model(model, self.size, config),
@@ -152,6 +167,7 @@ class CameraRig:
         positions must be computed, e.g. by ``mj_forward``)."""
         if self._context is None:
             raise SceneError("CameraRig.render() called after close()")
+        _free_orphans()
         self._gl.make_current()
         model, data = self.model, self.data if data is None else data
         out: dict[str, np.ndarray] = {}
@@ -167,6 +183,7 @@ class CameraRig:
     def close(self) -> None:
         """Free the GL context (idempotent)."""
         if getattr(self, "_context", None) is not None:
+            _free_orphans()
             self._gl.make_current()
             self._context.free()
             self._context = None
@@ -180,5 +197,7 @@ class CameraRig:
         self.close()
 
     def __del__(self) -> None:
-        with contextlib.suppress(Exception):  # interpreter shutdown: GL may already be gone
-            self.close()
+        """Queue the GL context for freeing at a safe point (see ``_ORPHANS``); never switch contexts here."""
+        if getattr(self, "_context", None) is not None:
+            _ORPHANS.append((self._gl, self._context))
+            self._context = None
