@@ -1,9 +1,10 @@
 """How much liquid the kept demonstrations of a dataset spilled, measured independently of ``spilled``.
 
-Reads the dataset with ``pyarrow`` and ``mujoco`` only: for every frame of every episode it restores the
-stored physics state and counts the liquid's particles (bodies ``<liquid>/p…``) inside the container's own
-bounding box (its collision geoms, in its frame, 1 cm of headroom above the rim). Prints, per episode, the
-largest fraction outside over all frames, and the worst over the dataset (the spec's limit: 15 %).
+For every frame of every episode it restores the stored physics state in the stored scene and counts the
+liquid's particles (bodies ``<liquid>/p…``) inside the container's own bounding box (its collision geoms, in
+its frame, 1 cm of headroom above the rim): raw MuJoCo geometry, not the predicate's cavity model. Prints, per
+episode, the largest fraction outside over all frames, and the worst over the dataset (the spec's limit:
+15 %).
 
 Run: ``.venv/bin/python benchmarks/audit_spill.py DATASET [--container container] [--liquid liquid]``
 """
@@ -11,21 +12,13 @@ Run: ``.venv/bin/python benchmarks/audit_spill.py DATASET [--container container
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import mujoco
 import numpy as np
-import pyarrow.parquet as pq
 
-
-def _model(root: Path, key: str) -> mujoco.MjModel:
-    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
-    row = scenes[key]
-    mjb = np.frombuffer(row["data"], np.uint8)
-    if row["base"] is not None:
-        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
-    return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
+from mgdata.record.physics import model_from_bytes, set_physics_state
+from mgdata.record.reader import DatasetReader
 
 
 def _box(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
@@ -46,33 +39,24 @@ def main() -> None:
     parser.add_argument("--container", default="container")
     parser.add_argument("--liquid", default="liquid")
     args = parser.parse_args()
-    root = args.dataset
-    info = json.loads((root / "meta" / "info.json").read_text())
-    spec = info["features"]["sim.physics_state"]["info"]["mujoco_state_spec"]
-    files = sorted(root.glob("meta/episodes/*/*.parquet"))
-    episodes = [r for p in files for r in pq.read_table(p).to_pylist()]
+    reader = DatasetReader(args.dataset)
     worst = 0.0
-    for ep in episodes:
-        m = _model(root, ep["mgdata/scene"])
+    for e in range(reader.num_episodes):
+        ep, m = reader.episode(e), model_from_bytes(reader.scene_mjb(e))
         d = mujoco.MjData(m)
         container = m.body(args.container).id
         particles = [b for b in range(m.nbody) if m.body(b).name.startswith(f"{args.liquid}/p")]
-        path = root / info["data_path"].format(chunk_index=ep["data/chunk_index"],
-                                               file_index=ep["data/file_index"])
-        table = pq.read_table(path, columns=["episode_index", "sim.physics_state"]).to_pydict()
-        states = [s for e, s in zip(table["episode_index"], table["sim.physics_state"], strict=True)
-                  if e == ep["episode_index"]]
+        assert ep.physics_state is not None, "the dataset stores no physics states"
         outside = 0.0
-        for state in states:
-            mujoco.mj_setState(m, d, np.asarray(state, dtype=np.float64), spec)
-            mujoco.mj_forward(m, d)
+        for state in ep.physics_state:
+            set_physics_state(m, d, state)
             lo, hi = _box(m, d, container)
             local = (d.xpos[particles] - d.xpos[container]) @ d.xmat[container].reshape(3, 3)
             outside = max(outside, 1.0 - float(np.all((local >= lo) & (local <= hi), axis=1).mean()))
         worst = max(worst, outside)
-        print(f"episode {ep['episode_index']:3d} task {ep['mgdata/task_id']:2d}: {len(states)} frames, "
+        print(f"episode {e:3d} task {reader.record(e).meta.task_id:2d}: {ep.length} frames, "
               f"at most {outside:.1%} of {len(particles)} particles outside the container")
-    print(f"{len(episodes)} episodes: worst {worst:.1%} outside (limit 15 %)")
+    print(f"{reader.num_episodes} episodes: worst {worst:.1%} outside (limit 15 %)")
 
 
 if __name__ == "__main__":

@@ -111,15 +111,24 @@ class _SweepThroughObstacle(ClutterSkeleton):
         return super().resolve(name, ctx)
 
 
-def test_knocking_over_a_fragile_is_unsafe_at_the_tipping_step(grasps: GraspDB) -> None:
-    recipe = load_family_recipe("clutter_dry")
-    ex = Executor(base_task(recipe, 1), recipe, grasps=grasps, render=False)
-    ex.skeleton = _SweepThroughObstacle()
+def _probed_attempt(task, recipe, grasps: GraspDB, skeleton: ClutterSkeleton):  # type: ignore[no-untyped-def]
+    """Draw 0 of ``task`` played by ``skeleton``, kept whatever happens, with the raw probe attached."""
+    ex = Executor(task, recipe, grasps=grasps, render=False)
+    ex.skeleton = skeleton
     ex.controller = probe = _Probe(ex.scene)
     sink = MemorySink()
-    result = ex.run(0, sink, keep_failed=True)
-    ex.close()
+    try:
+        result = ex.run(0, sink, keep_failed=True)
+    finally:
+        ex.close()
     frames, meta = sink.episodes[0]
+    return result, frames, meta, probe
+
+
+def test_knocking_over_a_fragile_is_unsafe_at_the_tipping_step(grasps: GraspDB) -> None:
+    recipe = load_family_recipe("clutter_dry")
+    sweep = _SweepThroughObstacle()
+    result, frames, meta, probe = _probed_attempt(base_task(recipe, 1), recipe, grasps, sweep)
     assert result.stage == "unsafe" and not result.kept and not meta.kept
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 45.0)
     assert result.t_violation["obstacles_stay_upright"] == tipped == len(frames) - 1
@@ -154,13 +163,7 @@ def test_pouring_the_liquid_out_is_a_spill_at_the_step_it_leaves(grasps: GraspDB
     spec = SafetySpec(spec.name, kept, spec.propositions)
     task = dataclasses.replace(base_task(recipe, 0), safety=spec)
     recipe = dataclasses.replace(recipe, spec=spec)
-    ex = Executor(task, recipe, grasps=grasps, render=False)
-    ex.skeleton = _PourAfterLift()
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    result = ex.run(0, sink, keep_failed=True)
-    ex.close()
-    frames, _ = sink.episodes[0]
+    result, frames, _, probe = _probed_attempt(task, recipe, grasps, _PourAfterLift())
     assert result.stage == "unsafe", (result.stage, result.reason)
     spilled = next(t for t, inside in enumerate(probe.inside, start=1) if inside < 0.85)
     t_v = result.t_violation["liquid_not_spilled"]

@@ -100,7 +100,9 @@ _ACCEPTED: dict[tuple[str, str, int, str], TaskSpec] = {}
 
 
 def _gated(recipe: Recipe, task_id: int, grasps: Path) -> TaskSpec:
-    draw_task(recipe, task_id, 0) if not 0 <= task_id < recipe.tasks.count else None  # names a bad id
+    if not 0 <= task_id < recipe.tasks.count:
+        raise RecipeError(f"{recipe.path}: task {task_id} does not exist (the recipe has tasks 0 … "
+                          f"{recipe.tasks.count - 1})")
     failures: Counter[str] = Counter()
     last: dict[str, str] = {}
     for draw in range(recipe.tasks.max_draws):

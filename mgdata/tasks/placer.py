@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 from functools import cache
 
+import mujoco
 import numpy as np
 
 from mgdata.errors import RecipeError
@@ -60,7 +61,9 @@ def footprint_radius(name: str) -> float:
         for g in geoms:
             centre = math.hypot(origin[0] + g.pos[0], origin[1] + g.pos[1])
             if g.mesh is not None:
-                rot = _quat_mat(g.quat)
+                rot = np.empty(9)
+                mujoco.mju_quat2Mat(rot, np.asarray(g.quat, dtype=np.float64))
+                rot = rot.reshape(3, 3)
                 pts = g.mesh.verts @ rot.T + np.asarray(g.pos) + np.asarray(origin)
                 extent = float(np.max(np.hypot(pts[:, 0], pts[:, 1])))
             elif g.kind == "box":
@@ -251,13 +254,6 @@ def _goal(layout: Layout, by_role: dict[str, list[ObjectPlacement]], rng: np.ran
     clear = f" and clear of {', '.join(rule.clear_of)}" if rule.clear_of else ""
     raise LayoutRejected(f"{where} goal", f"no goal centre {lo:g}–{hi:g} m from {origin.name} inside the "
                                           f"region{clear} after {layout.tries} draws")
-
-
-def _quat_mat(q: tuple[float, float, float, float]) -> np.ndarray:
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def _wrap(angle: float) -> float:
