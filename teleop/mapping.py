@@ -98,7 +98,7 @@ class SO101Mapper:
         self.last = None
 
     def command(self, ticks: np.ndarray, events: StepEvents) -> tuple[np.ndarray, float]:
-        self.last = self.retarget.step(self.cal.joints_q(ticks), reanchor=events.clutch)
+        self.last = self.retarget.step(self.cal.joints_q(ticks), clutch=events.clutch)
         closed = 1.0 - self.cal.gripper_open(ticks)
         return self.last.q, 1.0 if closed > self.config.leader.gripper_threshold else 0.0
 

@@ -4,8 +4,10 @@ Per control step (all poses in the Panda base frame):
 
 1. **map**: ``p = p_ref + scale · A (p_L − p_L,ref)`` and ``R = A R_L R_L,refᵀ Aᵀ R_ref`` with ``A`` the frame
    alignment and ``scale`` from the calibration file; the reference pair starts as (leader at the middle of
-   every joint, Panda TCP at ``HOME_Q``), and the **clutch** re-anchors it on press (leader now ↔ target now),
-   so the operator can reposition their hand without moving the robot;
+   every joint, Panda TCP at ``HOME_Q``). The **clutch** toggles: pressed once, it disengages (the target
+   holds still whatever the leader does, so the operator can reposition their hand, e.g. lift a leader whose
+   gripper points down back to the top of its short vertical travel); pressed again, it re-engages and
+   re-anchors the pair (leader now ↔ target now);
 2. **clamp** the position into the workspace box;
 3. **rate-limit** the target: at most ``max_step_m`` and ``max_step_rad`` from the previous target;
 4. **IK** with mink, one local solve warm-started at the current joints (posture pulled to them too);
@@ -14,7 +16,7 @@ Per control step (all poses in the Panda base frame):
 Example::
 
     rt = Retargeter(cal, config.retarget, q0=HOME_Q)
-    step = rt.step(leader_q, reanchor=False)
+    step = rt.step(leader_q, clutch=False)
     step.q            # (7,) Panda joint command
 """
 
@@ -44,6 +46,7 @@ class RetargetStep:
         target: the TCP target after the clamp and the rate limit (what IK solved for).
         clamped: the workspace clamp moved the mapped position.
         ik_ok: IK converged to the target within its tolerances.
+        engaged: the target followed the leader (``False`` while the clutch is out).
     """
 
     q: np.ndarray
@@ -51,6 +54,7 @@ class RetargetStep:
     target: Pose
     clamped: bool
     ik_ok: bool
+    engaged: bool = True
 
 
 class Retargeter:
@@ -58,6 +62,7 @@ class Retargeter:
 
     Attributes:
         ik_failures: control steps on which IK did not converge.
+        engaged: the target follows the leader (the clutch toggles it).
     """
 
     def __init__(self, cal: SO101Calibration, config: RetargetConfig, q0: np.ndarray = HOME_Q) -> None:
@@ -73,6 +78,7 @@ class Retargeter:
         self._panda_ref = (home.pos, home.rotation())
         self._lo, self._hi = np.asarray(config.workspace_lo), np.asarray(config.workspace_hi)
         self.ik_failures = 0
+        self.engaged = True
 
     def reanchor(self, leader_q: np.ndarray) -> None:
         """Clutch: the leader's pose now corresponds to the current target from here on."""
@@ -88,12 +94,17 @@ class Retargeter:
         rot = a @ r_l @ r0_l.T @ a.T @ r0
         return Pose.from_pos_mat(pos, rot)
 
-    def step(self, leader_q: np.ndarray, reanchor: bool = False) -> RetargetStep:
-        """One control step: map, clamp, rate-limit, IK, joint-step limit."""
+    def step(self, leader_q: np.ndarray, clutch: bool = False) -> RetargetStep:
+        """One control step: map, clamp, rate-limit, IK, joint-step limit. ``clutch``: the operator pressed
+        the clutch before this step (disengage, or re-engage and re-anchor)."""
         c = self.config
-        if reanchor:
-            self.reanchor(leader_q)
+        if clutch:
+            self.engaged = not self.engaged
+            if self.engaged:
+                self.reanchor(leader_q)
         mapped = self.mapped(leader_q)
+        if not self.engaged:  # the target holds; IK keeps the arm on it
+            return self._solve(mapped, self.target, False)
         pos = np.clip(mapped.pos, self._lo, self._hi)
         clamped = bool(np.any(np.abs(pos - mapped.pos) > 1e-12))
         dp = pos - self.target.pos
@@ -106,7 +117,12 @@ class Retargeter:
         if angle > c.max_step_rad:
             rel = rel * (c.max_step_rad / angle)
         quat = (r_prev * Rotation.from_rotvec(rel)).as_quat(scalar_first=True)
-        self.target = Pose(pos, quat)
+        return self._solve(mapped, Pose(pos, quat), clamped)
+
+    def _solve(self, mapped: Pose, target: Pose, clamped: bool) -> RetargetStep:
+        """IK to ``target`` from the current joints, the joint step limited."""
+        c = self.config
+        self.target = target
         result = self.ik.attempt(self.target, self.q, posture=self.q)
         ok = result.converged(self.ik.config)
         if not ok:
@@ -116,4 +132,4 @@ class Retargeter:
         if worst > c.max_joint_step:
             dq = dq * (c.max_joint_step / worst)
         self.q = self.q + dq
-        return RetargetStep(self.q.copy(), mapped, self.target, clamped, ok)
+        return RetargetStep(self.q.copy(), mapped, self.target, clamped, ok, self.engaged)

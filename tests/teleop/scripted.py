@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from teleop.bus import ServoBus
@@ -17,10 +17,13 @@ FAMILY = {"gello": "dynamixel", "so101": "feetech"}
 
 
 def run_scripted_session(arm: str, build: ArmBuild, calibration: str, scripts: Sequence[JointScript],
-                         out: Path, *, task: int = 0, stop_at: int | None = None, keep_failed: bool = True
+                         out: Path, *, family: str = "jar", task: int = 0, stop_at: int | None = None,
+                         keep_failed: bool = True, presses: Mapping[int, Sequence[str]] | None = None
                          ) -> TeleopSession:
     """Record one episode: the leader follows ``scripts`` on the simulated clock (t = steps · 50 ms); the
-    operator presses Stop after ``stop_at`` steps (``None``: the episode ends by itself)."""
+    operator presses Stop after ``stop_at`` steps (``None``: the episode ends by itself). With ``presses``
+    (step n → buttons pressed after step n; 0: before the first) the operator presses buttons, and the
+    episode starts with the ``record`` among them instead of by itself."""
     config = load_teleop_config()
     clock = ManualClock()
     with build.bus(scripts, clock) as emu:
@@ -33,11 +36,18 @@ def run_scripted_session(arm: str, build: ArmBuild, calibration: str, scripts: S
 
         def on_step(k: int) -> None:
             clock.t = k * 0.05
-            if stop_at is not None and k == stop_at and session is not None:
+            if session is None:
+                return
+            if stop_at is not None and k == stop_at:
                 session.command("stop")
+            for name in (presses or {}).get(k, ()):
+                session.command(name)
 
-        job = SessionJob(arm, "jar", task, out, keep_failed=keep_failed, episodes=1, autostart=True)
+        job = SessionJob(arm, family, task, out, keep_failed=keep_failed, episodes=1,
+                         autostart=presses is None)
         session = TeleopSession(job, mapper, calibration, reader, on_step=on_step)
+        for name in (presses or {}).get(0, ()):
+            session.command(name)
         try:
             session.run()
         finally:

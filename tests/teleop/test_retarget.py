@@ -91,15 +91,26 @@ def test_step_limits_bound_a_jump() -> None:
     assert np.max(np.abs(step.q - q_before)) <= config.max_joint_step + 1e-12
 
 
-def test_clutch_reanchors_without_moving_the_robot() -> None:
+def test_clutch_out_holds_the_robot_and_clutch_in_reanchors() -> None:
     rt = Retargeter(CAL, CONFIG, q0=HOME_Q)
     for k in range(40):
         rt.step(_leader(k / 20.0, amp=0.4))
-    held = rt.target
-    moved_hand = _leader(2.0, amp=0.4) + np.array([0.3, 0.0, 0.0, 0.0, 0.0])
-    step = rt.step(moved_hand, reanchor=True)
-    assert np.linalg.norm(step.target.pos - held.pos) < 1e-9
+    held, q_held = rt.target, rt.q.copy()
+    hand = _leader(2.0, amp=0.4)
+    step = rt.step(hand, clutch=True)  # out: the hand moves far, the robot stays
+    for k in range(10):
+        step = rt.step(hand + np.array([0.03 * k, -0.02 * k, 0.04 * k, 0.0, 0.05 * k]))
+        assert not step.engaged
+        assert np.linalg.norm(step.target.pos - held.pos) < 1e-9 and step.target.angle_to(held) < 1e-6
+    assert np.max(np.abs(rt.q - q_held)) < 1e-3
+    moved_hand = hand + np.array([0.3, -0.2, 0.4, 0.0, 0.5])
+    step = rt.step(moved_hand, clutch=True)  # in: this hand pose now maps onto the held target
+    assert step.engaged and np.linalg.norm(step.target.pos - held.pos) < 1e-9
     assert step.target.angle_to(held) < 1e-6
+    # from here the target follows the hand's motion relative to the new anchor
+    nudge = moved_hand + np.array([0.05, 0.0, 0.0, 0.0, 0.0])
+    d_leader = rt.fk.ee(nudge)[0] - rt.fk.ee(moved_hand)[0]
+    assert np.allclose(rt.mapped(nudge).pos - held.pos, CAL.scale * d_leader, atol=1e-9)
 
 
 @pytest.mark.parametrize("scale", [1.0, 2.0])

@@ -21,6 +21,7 @@ from teleop.so101.calibration import so101_motors
 from teleop.stream import LeaderStream, stream_path
 from tests.teleop.conftest import GELLO_BUILD
 from tests.teleop.scripted import run_scripted_session
+from tests.teleop.so101_demo import operator_script
 
 
 def _files(root: Path) -> dict[str, bytes]:
@@ -95,8 +96,8 @@ def test_episode_without_keep_failed_is_dropped(gello_cal: GelloCalibration, tmp
     assert validate_dataset(out).episodes == 0
 
 
-def _planner_demo() -> np.ndarray:
-    """The commanded joints + gripper of a kept planner demonstration of jar task 0 (no rendering)."""
+def _planner_demo(family: str = "jar", task: int = 0) -> np.ndarray:
+    """The commanded joints + gripper of a kept planner demonstration of a task (no rendering)."""
     from mgdata.engine.executor import Executor
     from mgdata.engine.init_gate import base_task
     from mgdata.grasps.db import GraspDB
@@ -104,8 +105,8 @@ def _planner_demo() -> np.ndarray:
     from mgdata.record.episode import MemorySink
     from mgdata.tasks.recipe import load_recipe
 
-    recipe = load_recipe("jar")
-    ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
+    recipe = load_recipe(family)
+    ex = Executor(base_task(recipe, task), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
     sink = MemorySink()
     try:
         result = ex.run(0, sink)
@@ -140,6 +141,43 @@ def test_gello_replays_a_demonstration_that_the_gate_keeps(gello_cal: GelloCalib
     meta = DatasetReader(out).record(0).meta
     assert meta.kept and meta.success and meta.source == "gello" and not any(
         v is not None for v in meta.t_violation.values())
+    report = validate_dataset(out)
+    assert report.ok, report.problems
+    replayed = tmp_path / "replayed"
+    replay_episode(out, 0, replayed)
+    assert _files(replayed) == _files(out)
+
+
+@pytest.mark.slow
+def test_so101_top_grasp_demonstration_is_kept(tmp_path: Path) -> None:
+    """A person's hand on the 5-joint SO-101, scripted: clutter_dry task 0 (pick the cup out of the clutter
+    with a top grasp, carry it into the goal). The leader's gripper points down, so its wrist_roll gives the
+    grasp's yaw, and one clutch stroke (out, leader back up, in) covers the Panda's 28 cm of height with the
+    leader's 5 cm. The same monitor and gate keep the episode; it validates and replays byte for byte."""
+    build = ArmBuild.so101(seed=5)
+    upper = [1.9, 1.75, 1.7, 1.66, 2.74, 1.7]
+    lower = [-u for u in upper[:5]] + [-0.15]
+    clock = ManualClock()
+    with build.bus(so101_calibration_scripts([0.0] * 6, lower, upper), clock) as emu:
+        bus = ServoBus("feetech", emu.port, so101_motors())
+        cal = calibrate_so101(bus, clock, scale=2.5)
+        bus.close()
+    path = tmp_path / "so101.json"
+    cal.save(path)
+    op = operator_script(_planner_demo("clutter_dry", 0), HOME_Q, cal.scale)
+    assert op.strokes >= 1  # the leader's vertical travel alone does not cover the task
+    t = np.arange(len(op.arm)) * 0.05
+    scripts = [JointScript(t, op.arm[:, k]) for k in range(5)] + [JointScript(t, op.jaw)]
+    out = tmp_path / "cup_so101"
+    session = run_scripted_session("so101", build, path.read_text(), scripts, out, family="clutter_dry",
+                                   presses=op.presses)
+    assert session.stored == [(True, 0)], session.status.message
+    assert session.mapper.retarget.ik_failures == 0  # type: ignore[attr-defined]
+    meta = DatasetReader(out).record(0).meta
+    assert meta.kept and meta.success and meta.source == "so101" and not any(
+        v is not None for v in meta.t_violation.values())
+    stream = LeaderStream.load(stream_path(out, 0))
+    assert int(stream.clutch.sum()) == 2 + 2 * op.strokes
     report = validate_dataset(out)
     assert report.ok, report.problems
     replayed = tmp_path / "replayed"
