@@ -50,10 +50,24 @@ class RetargetConfig:
 class ViewConfig:
     image_every: int = 4
     scene_every: int = 1
+    monitor_every: int = 10
+    shadows: bool = False
+    environment: bool = False
 
     def __post_init__(self) -> None:
-        if self.image_every < 1 or self.scene_every < 1:
-            raise RecipeError("[view] image_every and scene_every must be >= 1 (control steps)")
+        if min(self.image_every, self.scene_every, self.monitor_every) < 1:
+            raise RecipeError("[view] image_every, scene_every and monitor_every must be >= 1 "
+                              "(control steps)")
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    realtime_priority: int = 0
+
+    def __post_init__(self) -> None:
+        if self.realtime_priority != 0 and not 2 <= self.realtime_priority <= 99:
+            raise RecipeError(f"[loop] realtime_priority = {self.realtime_priority}: must be 0 (off) "
+                              "or 2 … 99")
 
 
 @dataclass(frozen=True)
@@ -61,6 +75,7 @@ class TeleopConfig:
     leader: LeaderConfig = field(default_factory=LeaderConfig)
     retarget: RetargetConfig = field(default_factory=RetargetConfig)
     view: ViewConfig = field(default_factory=ViewConfig)
+    loop: LoopConfig = field(default_factory=LoopConfig)
 
 
 def load_teleop_config(path: Path | None = None) -> TeleopConfig:

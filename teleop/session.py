@@ -52,6 +52,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from teleop.config import load_teleop_config
 from teleop.mapping import Mapper, StepEvents
+from teleop.priority import realtime
 from teleop.reader import LeaderReader
 from teleop.stream import LeaderStream, stream_rel
 
@@ -145,7 +146,9 @@ class TeleopSession:
         self.dt = self.scene.physics.control_dt
         self.cameras = CameraRig(self.scene, self.recipe.tasks.cameras, self.task.image_size)
         success = SuccessCheck(self.scene, self.recipe)
-        self.still_joint_step = load_teleop_config().leader.still_joint_step
+        config = load_teleop_config()
+        self.still_joint_step = config.leader.still_joint_step
+        self.realtime_priority = config.loop.realtime_priority
         schema = dataset_schema(self.recipe)
         hold = self.recipe.tasks.hold_steps
         self.writer = DatasetWriter.open_or_create(job.out, schema, codec=job.codec, spec=self.recipe.spec,
@@ -188,33 +191,39 @@ class TeleopSession:
         Steps start on an absolute schedule ``t0 + k·dt`` (no drift; a late step is followed at once by the
         next one on time). A step more than one period behind skips the missed slots instead of bursting
         through them. While the loop runs the interpreter hands the GIL over every ``SWITCH_S`` so the
-        control thread is not held up by the leader reader's or the operator view's Python code.
+        control thread is not held up by the leader reader's or the operator view's Python code; with
+        ``[loop] realtime_priority`` the process's threads run ``SCHED_FIFO`` (:mod:`teleop.priority`).
         """
         if self.reader is None:
             raise RecipeError("a live session needs a leader")
         switch = sys.getswitchinterval()
         sys.setswitchinterval(SWITCH_S)
-        t0, k = time.monotonic(), 0
         try:
-            while not self._quit:
-                due = t0 + k * self.dt
-                now = time.monotonic()
-                if now < due:
-                    time.sleep(due - now)
-                elif now - due > self.dt:  # more than a period behind: drop the missed slots
-                    skip = int((now - due) / self.dt)
-                    k += skip
-                    self.skipped += skip
-                    due = t0 + k * self.dt
-                start = time.monotonic()
-                self.step_times.append(start)
-                self.step_due.append(due)
-                self._tick()
-                self.step_busy.append(time.monotonic() - start)
-                k += 1
+            with realtime(self.realtime_priority):
+                self._loop()
         finally:
             sys.setswitchinterval(switch)
             self.close()
+
+    def _loop(self) -> None:
+        """Steps on the absolute schedule until quit (see :meth:`run`)."""
+        t0, k = time.monotonic(), 0
+        while not self._quit:
+            due = t0 + k * self.dt
+            now = time.monotonic()
+            if now < due:
+                time.sleep(due - now)
+            elif now - due > self.dt:  # more than a period behind: drop the missed slots
+                skip = int((now - due) / self.dt)
+                k += skip
+                self.skipped += skip
+                due = t0 + k * self.dt
+            start = time.monotonic()
+            self.step_times.append(start)
+            self.step_due.append(due)
+            self._tick()
+            self.step_busy.append(time.monotonic() - start)
+            k += 1
 
     def _tick(self) -> None:
         self._apply_commands()

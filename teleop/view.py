@@ -25,6 +25,8 @@ import dataclasses
 import html
 import os
 import threading
+import time
+from collections import deque
 from typing import Any
 
 import mujoco
@@ -95,6 +97,9 @@ class OperatorView:
         config = config or load_teleop_config().view
         self.session = session
         self.image_every, self.scene_every = config.image_every, config.scene_every
+        self.monitor_every = config.monitor_every
+        self._shown: tuple[str, int] = ("", -config.monitor_every)  # (monitor state, step) last sent
+        self.shadows, self.environment = config.shadows, config.environment
         self.server: Any = viser.ViserServer(host=host, port=port, label="mgdata teleop", verbose=False)
         self.url = f"http://{host}:{port}/"
         scene = session.scene
@@ -108,6 +113,7 @@ class OperatorView:
         self._stop = False
         self.published = 0  # snapshots pushed to viser
         self.superseded = 0  # snapshots replaced by a newer one before the publisher got to them
+        self.flushed: deque[tuple[int, float]] = deque(maxlen=20_000)  # (step, time.time()) monitor flushed
         self._thread = threading.Thread(target=self._publish_loop, name="operator-view", daemon=True)
         self._thread.start()
 
@@ -115,6 +121,9 @@ class OperatorView:
     def _build_scene(self) -> None:
         model, s = self._model, self.server.scene
         s.add_grid("/grid", width=2.0, height=2.0, position=(0.4, 0.0, -0.001))
+        s.configure_default_lights(cast_shadow=self.shadows)
+        if not self.environment:  # image-based lighting: per-pixel cost a software-rendered browser feels
+            s.configure_environment_map(hdri=None)
         cam = self.server.initial_camera
         cam.position, cam.look_at = (1.55, -0.95, 0.85), (0.45, 0.0, 0.1)
         for g in range(model.ngeom):
@@ -135,6 +144,7 @@ class OperatorView:
             s.add_mesh_simple(f"/world/b{b}/g{g}", mesh[0], mesh[1],
                               color=tuple(int(255 * c) for c in rgba[:3]),
                               opacity=float(rgba[3]) if rgba[3] < 1 else None,
+                              cast_shadow=self.shadows, receive_shadow=self.shadows,
                               wxyz=tuple(model.geom_quat[g]), position=tuple(model.geom_pos[g]))
         self._ids = np.array(list(self._bodies), dtype=np.int64)
         self._frames = [self._bodies[int(b)] for b in self._ids]
@@ -226,14 +236,25 @@ class OperatorView:
                 if self._stop:
                     return
                 snap, self._next = self._next, None
-            self._monitor.content = self._monitor_html(snap.status)
-            self.server.flush()  # a batch of GUI messages only: the browser applies it without a 3D frame
+            self._send_monitor(snap.status)
             if snap.pos is not None and snap.quat is not None:
                 self._move_bodies(snap.pos, snap.quat)
             if snap.images is not None:
                 for cam, handle in self._images.items():
                     handle.image = snap.images[cam]
             self.published += 1
+
+    def _send_monitor(self, status: SessionStatus) -> None:
+        """Send the monitor panel if its state changed, or ``monitor_every`` steps after it was last sent (the
+        step counter): a browser short of CPU then re-renders the panel only when there is news."""
+        state = self._monitor_html(dataclasses.replace(status, step=0, sent_at=0.0))
+        last_state, last_step = self._shown
+        if state == last_state and 0 <= status.step - last_step < self.monitor_every:
+            return
+        self._shown = (state, status.step)
+        self._monitor.content = self._monitor_html(status)
+        self.server.flush()  # a batch of GUI messages only: the browser applies it without a 3D frame
+        self.flushed.append((status.step, time.time()))
 
     def close(self) -> None:
         with self._cond:
