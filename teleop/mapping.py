@@ -43,6 +43,11 @@ class Mapper(Protocol):
     arm: str
     motors: list[Motor]
 
+    @property
+    def engaged(self) -> bool:
+        """The robot follows the leader (``False`` while an SO-101's clutch is out)."""
+        ...
+
     def reset(self, q0: np.ndarray) -> None: ...
 
     def command(self, ticks: np.ndarray, events: StepEvents) -> tuple[np.ndarray, float]: ...
@@ -52,6 +57,7 @@ class GelloMapper:
     """GELLO joints → Panda joints 1:1 (see the module docstring)."""
 
     arm = "gello"
+    engaged = True  # no clutch
 
     def __init__(self, cal: GelloCalibration, config: TeleopConfig) -> None:
         self.cal, self.config = cal, config.leader
@@ -92,6 +98,10 @@ class SO101Mapper:
         self.motors = cal.bus_motors
         self.retarget = Retargeter(cal, config.retarget)
         self.last: RetargetStep | None = None
+
+    @property
+    def engaged(self) -> bool:
+        return self.retarget.engaged
 
     def reset(self, q0: np.ndarray) -> None:
         self.retarget = Retargeter(self.cal, self.config.retarget, q0=q0)

@@ -91,6 +91,7 @@ class SessionStatus:
     step: int = 0
     recording: bool = False
     settling: bool = False
+    clutch_out: bool = False  # the robot holds while the operator repositions the leader (SO-101)
     constraints: tuple[str, ...] = ()
     formulas: tuple[str, ...] = ()
     violated: tuple[bool, ...] = ()
@@ -296,6 +297,7 @@ class TeleopSession:
             q, grip = self.runner.q_cmd, self.runner.grip
         else:
             q, grip = self.mapper.command(ticks, events)
+        self.status.clutch_out = not self.mapper.engaged
         ep.samples.append(sample)
         ep.clutch.append(events.clutch)
         ep.grip.append(events.grip_toggle)

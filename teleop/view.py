@@ -196,6 +196,8 @@ class OperatorView:
             banner = ("<div style='background:#c62828;color:white;padding:6px;font-weight:bold'>"
                       f"VIOLATION: {html.escape(s.first_violation)}</div>")
         mode = "settling" if s.settling else "recording" if s.recording else "idle"
+        if s.recording and s.clutch_out:
+            mode += " · CLUTCH OUT (the robot holds; press c to re-engage)"
         return (f"{banner}<div id='mg-monitor' data-step='{s.step}' data-sent='{s.sent_at:.6f}'>"
                 f"<b>{mode}</b> · step <span id='mg-step'>{s.step}</span><br>"
                 f"engaged: <b>{'yes' if s.engaged else 'no'}</b> · success: <b>{'yes' if s.success else 'no'}"
