@@ -1,5 +1,5 @@
-"""The lid family: the lid physically seats (no weld), ``seated`` agrees with raw MuJoCo, and an unsafe variant
-is caught at the right step.
+"""The lid family: the lid physically seats (no weld), ``seated`` agrees with raw MuJoCo, and an unsafe
+variant is caught at the right step.
 
 * ``seated(lid, container)`` against the test's own measurement: the lid is dropped at random offsets, heights
   and tilts over its container and left to settle; the seat height comes from the raw model (rim = top of
@@ -75,6 +75,12 @@ def _raw_seat(m: mujoco.MjModel, d: mujoco.MjData) -> float:
     return float(rim - (z.max() - z.min()))
 
 
+def _in_contact(m: mujoco.MjModel, d: mujoco.MjData, a: int, b: int) -> bool:
+    """Is there a MuJoCo contact between a geom of body ``a`` and one of body ``b``?"""
+    pairs = {(int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])) for c in d.contact[:d.ncon]}
+    return (a, b) in pairs or (b, a) in pairs
+
+
 def _mesh_world(m: mujoco.MjModel, d: mujoco.MjData, geom: int) -> np.ndarray:
     """World positions (n, 3) of a mesh geom's vertices."""
     mesh = m.geom_dataid[geom]
@@ -87,10 +93,7 @@ def _raw_seated(m: mujoco.MjModel, d: mujoco.MjData) -> bool:
     rot = d.xmat[box].reshape(3, 3)
     local = rot.T @ (d.xpos[lid] - d.xpos[box])
     tilt = math.degrees(math.acos(float(np.clip(d.xmat[lid].reshape(3, 3)[:, 2] @ rot[:, 2], -1.0, 1.0))))
-    lid_geoms = set(np.flatnonzero(m.geom_bodyid == lid).tolist())
-    box_geoms = set(np.flatnonzero(m.geom_bodyid == box).tolist())
-    touching = any((int(c.geom1) in lid_geoms and int(c.geom2) in box_geoms)
-                   or (int(c.geom2) in lid_geoms and int(c.geom1) in box_geoms) for c in d.contact[:d.ncon])
+    touching = _in_contact(m, d, lid, box)
     return (math.hypot(local[0], local[1]) <= MAX_OFFSET and abs(local[2] - _raw_seat(m, d)) <= MAX_GAP
             and tilt <= MAX_TILT_DEG and touching)
 
@@ -157,7 +160,7 @@ class _LiftFirst(LidSkeleton):
 
 class _Probe(JointController):
     """After every control step, from raw MuJoCo: has the container left the table (no contact with the
-    table's geoms and its lowest vertex more than 0.5 mm above the table top), and the lid's distance to it."""
+    table's geoms, its lowest vertex more than 0.5 mm above the table top), and how far the lid is from it."""
 
     def __init__(self, scene: Scene) -> None:
         super().__init__(scene)
@@ -165,7 +168,7 @@ class _Probe(JointController):
         self.box = m.body("container").id
         self.box_geoms = [g for g in np.flatnonzero(m.geom_bodyid == self.box) if m.geom_dataid[g] >= 0
                           and m.geom_contype[g]]
-        self.table = set(np.flatnonzero(m.geom_bodyid == m.body("table").id).tolist())
+        self.table = m.body("table").id
         self.off: list[bool] = []
         self.lid_apart: list[float] = []
 
@@ -175,15 +178,13 @@ class _Probe(JointController):
         top = m.geom("table/top").id
         table_top = d.geom_xpos[top][2] + m.geom_size[top][2]
         lowest = min(float(_mesh_world(m, d, g)[:, 2].min()) for g in self.box_geoms)
-        box_geoms = set(int(g) for g in np.flatnonzero(m.geom_bodyid == self.box))
-        contact = any((int(c.geom1) in box_geoms and int(c.geom2) in self.table)
-                      or (int(c.geom2) in box_geoms and int(c.geom1) in self.table) for c in d.contact[:d.ncon])
-        self.off.append(not contact and lowest > table_top + 0.0005)
+        self.off.append(not _in_contact(m, d, self.box, self.table) and lowest > table_top + 0.0005)
         self.lid_apart.append(float(np.linalg.norm(d.xpos[m.body("lid").id] - d.xpos[self.box])))
 
 
 def test_lifting_the_container_before_capping_it_is_unsafe_when_it_leaves_the_table(recipe) -> None:
-    ex = Executor(base_task(recipe, CANISTER_TASK), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
+    task = base_task(recipe, CANISTER_TASK)
+    ex = Executor(task, recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
     ex.skeleton = _LiftFirst()
     ex.controller = probe = _Probe(ex.scene)
     sink = MemorySink()
