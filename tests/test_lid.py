@@ -31,13 +31,18 @@ from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
+from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
+from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.predicates import Contacts, compile_check
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import EVALUATORS
+from mgdata.tasks.base import draw_task
+from mgdata.tasks.layout_rules import parse_layout
+from mgdata.tasks.placer import LayoutRejected
 from skeletons.lid import LidSkeleton
 
 MAX_OFFSET, MAX_GAP, MAX_TILT_DEG = 0.004, 0.003, 8.0  # the documented defaults (docs/predicates.md)
@@ -136,6 +141,29 @@ def test_seated_agrees_with_raw_mujoco(scenes, task: int, dx: float, dy: float, 
         assert _raw_seated(m, d), "a lid put into its seat stays there"
     if settle and abs(dx) >= 0.010:
         assert not _raw_seated(m, d), "a lid dropped 1 cm off the axis lands on the rim, askew"
+
+
+def test_every_task_draws_the_containers_own_lid_and_both_geometry_classes(recipe) -> None:
+    kinds = set()
+    for k in range(recipe.tasks.count):
+        try:
+            task = draw_task(recipe, k)
+        except LayoutRejected:
+            continue
+        models = {o.name: o.model for o in task.objects}
+        lid = get_model(models["lid"])
+        assert get_model(models["container"]).geometry["lid"] == models["lid"]
+        assert lid.geometry["container"] == models["container"]
+        kinds.add(lid.geometry["kind"])
+    assert kinds == {"lid", "cap"}
+
+
+def test_model_of_must_name_an_earlier_role() -> None:
+    roles = {"lid": {"models": ["lid/*"], "region": {"x": [0.4, 0.5], "y": [0.0, 0.1]},
+                     "model_of": {"role": "container", "key": "lid"}},
+             "container": {"models": ["container/*"], "region": {"x": [0.4, 0.5], "y": [0.0, 0.1]}}}
+    with pytest.raises(RecipeError, match="model_of role = 'container': expected a role listed before"):
+        parse_layout({"roles": roles}, "r.toml: [layout]")
 
 
 def test_nothing_welds_the_lid(scenes) -> None:
