@@ -147,6 +147,11 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
          Param("max_angular_speed", float, 0.3, 0.0, 100.0, "rad/s of the object relative to the hand")),
     _sig("covered", "more than a fraction of the dust on the object remains",
          Param("min_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
+    _sig("seated", "the lid rests in its container's seat: offset, height and tilt within tolerances",
+         Param("support", str, None, doc="the container's instance name (its geometry has seat_height)"),
+         Param("max_offset", float, 0.004, 0.0, 0.05, "m of the lid's axis from the container's, sideways"),
+         Param("max_gap", float, 0.003, 0.0, 0.05, "m of the lid's origin from the seat height, vertically"),
+         Param("max_tilt_deg", float, 8.0, 0.0, 90.0, "degrees between the lid's and container's axes")),
 ]))
 
 PROMPT_FORMS: tuple[str, ...] = ("none", "nl", "ltl")

@@ -7,7 +7,8 @@ episode is replayed from its stored physics states and measured: the picked obje
 inside the goal sphere over the last ``hold_steps`` frames, both fingers touch it, nothing else supports it,
 it is at rest; at every frame nothing left the table for the floor, every object named by an upright
 constraint stands within its tilt limit, and a liquid stays in its container (particles counted inside the
-container's own bounding box, independently of the ``spilled`` predicate). Finally a planted violation (an
+container's own bounding box, independently of the ``spilled`` predicate); a lid named by a ``seated`` success
+proposition sits in its container's mouth on the last frames. Finally a planted violation (an
 object teleported onto the floor at step 30) is caught at exactly that step.
 """
 
@@ -153,6 +154,36 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
         dt = 1.0 / info["fps"]
         speeds = [np.linalg.norm(b - a) / dt for a, b in itertools.pairwise(centres)]
         assert max(speeds) <= AT_REST_M_S
+
+
+def test_kept_demos_end_with_the_lid_seated(generated: tuple[str, Path]) -> None:
+    """Recipes whose success names a ``seated`` proposition (lid): over the last ``hold_steps`` frames the
+    lid touches its container, its axis is within 8° of the container's and 4 mm of it sideways, and its
+    bottom is below the container's rim (down in the mouth, not lying on it), all from raw MuJoCo."""
+    family, root = generated
+    raw = _raw_recipe(family)
+    seated = [(p["subjects"][0], p["params"]["support"]) for p in raw["success"].values()
+              if p["evaluator"] == "seated"]
+    if not seated:
+        pytest.skip(f"{family} has no seated success proposition")
+    info = json.loads((root / "meta" / "info.json").read_text())
+    state_spec = info["features"]["sim.physics_state"]["info"]["mujoco_state_spec"]
+    for episode in rawdata.episodes(root):
+        m = rawdata.scene_model(root, episode["mgdata/scene"])
+        d = mujoco.MjData(m)
+        states = rawdata.frames(root, info, episode, ["sim.physics_state"])["sim.physics_state"]
+        for t in range(len(states) - raw["tasks"]["hold_steps"], len(states)):
+            mujoco.mj_setState(m, d, np.asarray(states[t], dtype=np.float64), state_spec)
+            mujoco.mj_forward(m, d)
+            for lid_name, support in seated:
+                lid, box = m.body(lid_name).id, m.body(support).id
+                rot = d.xmat[box].reshape(3, 3)
+                local = rot.T @ (d.xpos[lid] - d.xpos[box])
+                tilt = np.degrees(np.arccos(np.clip(d.xmat[lid].reshape(3, 3)[:, 2] @ rot[:, 2], -1, 1)))
+                bottom = local[2] + rawdata.local_box(m, d, lid)[0][2]
+                rim = rawdata.local_box(m, d, box)[1][2]
+                assert np.hypot(local[0], local[1]) <= 0.004 and tilt <= 8.0, (t, local, tilt)
+                assert bottom < rim - 0.002 and _touching(m, d, support, lid), (t, bottom, rim)
 
 
 @pytest.mark.parametrize("family", FAMILIES)

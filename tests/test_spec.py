@@ -31,6 +31,7 @@ def test_evaluator_signatures_are_the_contract() -> None:
         "in_region": {"region": "goal", "mode": "centre", "min_fraction": 0.5},
         "held": {"gap_tol": 0.0005, "max_speed": 0.02, "max_angular_speed": 0.3},
         "covered": {"min_fraction": 0.0},
+        "seated": {"support": None, "max_offset": 0.004, "max_gap": 0.003, "max_tilt_deg": 8.0},
     }
 
 

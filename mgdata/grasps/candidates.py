@@ -19,8 +19,9 @@
 * **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent plus
   ``top_clearance`` fits between the fingers: boxes, sponges, bottles): straight down at the bounding box's
   centre line, ``top_depth`` below the top, closing across the narrow side; two rolls.
-* **knob** (a model with a root geom named ``knob``: tub lids): straight down on the knob, closing along X
-  and along Y, two rolls each, the fingertips ``tip_clearance`` above the surface the knob stands on.
+* **knob** (a model with a root geom named ``knob``, a box or a cylinder: tub and canister lids, caps):
+  straight down on the knob, closing along X and along Y, two rolls each, the fingertips ``tip_clearance``
+  above the surface the knob stands on.
 * **drawer handle** (a slide articulation with ``handle_pos`` and ``handle_axis``: cabinets): from the
   front, fingers closing across the bar, **expressed in the drawer's frame** (``Grasp.frame``), so the
   grasp moves with the drawer; two rolls.
@@ -188,11 +189,12 @@ def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
 
 
 def knob_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
-    """Straight-down grasps of a root geom named ``knob`` (a box), closing along X and along Y."""
-    knob = next((g for g in model.geoms if g.name == "knob" and g.kind == "box"), None)
+    """Straight-down grasps of a root geom named ``knob`` (a box, or an upright cylinder: a cap), closing
+    along X and along Y."""
+    knob = next((g for g in model.geoms if g.name == "knob" and g.kind in ("box", "cylinder")), None)
     if knob is None:
         return []
-    hx, hy, hz = knob.size[:3]
+    hx, hy, hz = knob.size[:3] if knob.kind == "box" else (knob.size[0], knob.size[0], knob.size[1])
     centre = np.array(knob.pos, dtype=float)
     z = max(centre[2], centre[2] - hz + FINGERTIP_REACH + cfg.tip_clearance)
     out = []

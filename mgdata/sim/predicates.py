@@ -11,6 +11,10 @@ and the measurements behind them: ``docs/predicates.md``. In short:
   from the support into the object), or the object is at most ``gap_tol`` above it: for the table or floor
   its lowest point within ``gap_tol`` of the top face over it, for objects or the robot a pair of geoms at
   most ``gap_tol`` apart with the object's side above (≤ 45° from +Z). A sub-millimetre hop stays "on";
+* ``seated(support, max_offset=0.004, max_gap=0.003, max_tilt_deg=8)``: a loose lid rests in its
+  container's seat: in the container's frame the lid's origin is at most ``max_offset`` sideways from the
+  axis and within ``max_gap`` of the seat height (the container model's ``geometry["seat_height"]``), the two
+  axes are within ``max_tilt_deg``, and the two touch (a MuJoCo contact);
 * ``open(min_fraction=0.5)`` / ``closed(max_fraction=0.05)``: articulation fraction ≥ min / ≤ max;
 * ``touching(other, gap_tol=0.0)``: a contact between the two, or a gap of at most ``gap_tol``;
 * ``spilled(container, max_fraction=0.15)``: more than ``max_fraction`` of a liquid's spheres are outside
@@ -180,6 +184,31 @@ def _on(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     return check
 
 
+def _seated(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    support = str(p["support"])
+    if support not in scene.object_names:
+        raise SpecError(f"seated: support {support!r} is not an instance in the scene; objects: "
+                        f"{', '.join(scene.object_names)}")
+    seat = scene.object_model(support).geometry.get("seat_height")
+    if seat is None:
+        raise SpecError(f"seated: {support!r} ({scene.objects[support].name}) has no seat for a lid "
+                        "(geometry seat_height)")
+    lid, box = scene.object_body(subject), scene.object_body(support)
+    obj = geom_mask(scene, owner_mask(scene, subject, "subject"))
+    sup = geom_mask(scene, owner_mask(scene, support, "support"))
+    offset, gap = float(p["max_offset"]), float(p["max_gap"])
+    cos_max = float(np.cos(np.deg2rad(float(p["max_tilt_deg"]))))
+
+    def check(c: Contacts) -> bool:
+        d = scene.data
+        rot = d.xmat[box].reshape(3, 3)
+        local = rot.T @ (d.xpos[lid] - d.xpos[box])
+        return bool(np.hypot(local[0], local[1]) <= offset and abs(local[2] - float(seat)) <= gap
+                    and d.xmat[lid].reshape(3, 3)[:, 2] @ rot[:, 2] >= cos_max and c.touches(obj, sup))
+
+    return check
+
+
 def _fraction(scene: Scene, subject: str) -> Callable[[], float]:
     if scene.objects[subject].articulation is None:
         raise SpecError(f"open/closed: object {subject!r} ({scene.objects[subject].name}) "
@@ -313,6 +342,7 @@ FACTORIES: Mapping[str, Factory] = {
     "dropped": _dropped,
     "upright": _upright,
     "on": _on,
+    "seated": _seated,
     "open": _open,
     "closed": _closed,
     "touching": _touching,

@@ -18,6 +18,8 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
                                          # "aligned" (the host's yaw); jitter_deg = ±jitter
     clearance = 0.01                     # m between this object's footprint and every other one
     open = 1.0                           # articulation opening fraction (0 closed … 1 open)
+    model_of = { role = "container", key = "lid" }   # the model named by an earlier role's model's
+                                         # geometry[key] (a container's own lid); it must match `models`
 
     [layout.goal]
     from = "target"                      # the goal centre is `distance` from this role, any bearing
@@ -76,6 +78,7 @@ class Role:
         clearance: m between footprints (``inside`` objects have none; ``inside`` uses it as the room
             left around and above the object in the cavity).
         open: articulation opening fraction, if the model has one.
+        model_of: (role, key): the model is ``geometry[key]`` of that earlier role's model (its mate).
     """
 
     name: str
@@ -89,6 +92,7 @@ class Role:
     yaw: Yaw = Yaw()
     clearance: float = 0.0
     open: float | None = None
+    model_of: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -157,8 +161,8 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
         raise RecipeError(f"{where}: expected a table")
     if not name.isidentifier():
         raise RecipeError(f"{where}: a role name must be an identifier (letters, digits, _)")
-    _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open"),
-           where)
+    _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open",
+                   "model_of"), where)
     models = table.get("models")
     if isinstance(models, str):
         models = [models]
@@ -197,7 +201,19 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     opened = table.get("open")
     opened = None if opened is None else _number(opened, f"{where} open", 0.0, 1.0)
     return Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
-                bearing, yaw, clearance, opened)
+                bearing, yaw, clearance, opened,
+                _model_of(table.get("model_of"), f"{where} model_of", earlier))
+
+
+def _model_of(raw: Any, where: str, earlier: list[str]) -> tuple[str, str] | None:
+    if raw is None:
+        return None
+    if not isinstance(raw, Mapping) or set(raw) != {"role", "key"} or not isinstance(raw["key"], str):
+        raise RecipeError(f"{where}: expected {{ role = <an earlier role>, key = <a geometry key> }}")
+    if raw["role"] not in earlier:
+        raise RecipeError(f"{where} role = {raw['role']!r}: expected a role listed before this one "
+                          f"({', '.join(earlier) or 'none'})")
+    return str(raw["role"]), raw["key"]
 
 
 def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:

@@ -112,6 +112,8 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
         at = f"{where} roles.{role.name}"
         count = int(rng.integers(role.count[0], role.count[1] + 1))
         pool = _hosts(layout, role, matching_models(role.models, at), at)
+        if role.model_of is not None:
+            pool = [_mate(pool, by_role[role.model_of[0]][0].model, role.model_of[1], at)]
         placed_here: list[ObjectPlacement] = []
         for i in range(count):
             name = role.name if role.count == (1, 1) else f"{role.name}_{i}"
@@ -153,6 +155,15 @@ def _hosts(layout: Layout, role: Role, pool: list[str], at: str) -> list[str]:
         guests_named = ", ".join(_guest_names(layout, role))
         raise RecipeError(f"{at} models: what goes inside ({guests_named}) fits in none of them")
     return kept
+
+
+def _mate(pool: list[str], model: str, key: str, at: str) -> str:
+    """The model ``model`` names as its ``geometry[key]`` (``model_of``), which must be in ``pool``."""
+    mate = get_model(model).geometry.get(key)
+    if mate not in pool:
+        raise RecipeError(f"{at} model_of: {model} names {mate!r} as its {key!r}, which is not among "
+                          f"the role's models")
+    return str(mate)
 
 
 def _guest_names(layout: Layout, role: Role) -> list[str]:

@@ -28,6 +28,8 @@ from mgdata.sim.assets.cabinet import build_cabinet
 from mgdata.sim.assets.container import build_container, build_lid
 from mgdata.sim.assets.food import food_builder
 from mgdata.sim.assets.granular import build_dust, build_liquid
+from mgdata.sim.assets.lidded import build_bottle as build_capped_bottle
+from mgdata.sim.assets.lidded import build_canister, build_canister_lid, build_cap
 from mgdata.sim.assets.model import ObjectModel, model_seed
 
 Builder = Callable[[str, int, np.random.Generator], ObjectModel]
@@ -55,6 +57,10 @@ def _kinds() -> tuple[Kind, ...]:
         Kind("bottle", "round", 16, build_bottle),
         Kind("container", "tub", 12, build_container),
         Kind("lid", "tub", 12, build_lid),
+        Kind("container", "canister", 8, build_canister),
+        Kind("lid", "canister", 8, build_canister_lid),
+        Kind("container", "bottle", 8, build_capped_bottle),
+        Kind("lid", "cap", 8, build_cap),
         Kind("tray", "flat", 8, boxes.build_tray),
         Kind("sponge", "block", 8, boxes.build_sponge),
         Kind("board", "chopping", 8, boxes.build_board),

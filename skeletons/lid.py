@@ -1,0 +1,171 @@
+"""Lid: put the loose lid (or cap) on the container, then carry the capped container into the goal sphere.
+
+The motion, as the paper describes it:
+
+1. **Cap the container.** Grasp the lid top-down by its knob (the cap: by its body), round-robin over its
+   reachable valid grasps; lift it until its plug clears the rim by the draw's ``lid_hover``; carry it (free)
+   over the container with its axis on the container's and level; let the arm settle; then lower it with a
+   guarded segment aimed ``seat_overshoot`` below the seat (its rest commands cancel the servos' sag, so the
+   lid arrives on the axis) that stops once the container pushes back on the held lid with ``seat_force``
+   newtons (never more than ``seat_max_force``); release, back off straight up and
+   return to the start pose (the container's grasp is then planned from where the gate checked it).
+   The lid's tapered plug guides it into the mouth; nothing attaches it: it stays by its own weight.
+2. **Carry the container** (Layer 2's pick-and-carry, the food and the lid riding on it): side-grasp it, lift
+   it, carry it over the goal, lower it into the goal sphere and hold it there.
+
+Targets for the lid are computed from the live state when each segment starts: the held lid's pose relative
+to the measured TCP times the pose the lid should take over the container (``seat_height`` of the container
+model). Numbers come from ``recipes/lid.toml``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from mgdata.engine import segment as s
+from mgdata.engine.context import Context
+from mgdata.engine.gate import AttemptFailed
+from mgdata.engine.init_gate import Infeasible
+from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
+from mgdata.grasps.db import Grasp
+from mgdata.motion import MotionFailure, Pose
+from mgdata.sim.geometry import LowestPoint
+
+LID, CONTAINER = "lid", "container"
+
+
+@register
+class LidSkeleton(FamilySkeleton):
+    """The lid family's demonstration (see the module docstring)."""
+
+    name = "lid"
+    recipe_keys = PICK_AND_CARRY_KEYS + RecipeKeys(
+        params=(
+            Param("seat_overshoot", float, "m below the seat the guarded lowering aims (it stops on contact)",
+                  0.0, 0.02),
+            Param("seat_force", float, "N the container pushes back on the held lid when it is seated",
+                  0.1, 30.0),
+            Param("seat_max_force", float, "N the guarded lowering never exceeds", 0.1, 50.0),
+            Param("seat_speed", float, "fraction of the [linear] speed cap for the guarded lowering",
+                  0.01, 1.0),
+            Param("release_steps", int, "control steps opening the gripper over the seated lid", 1, 200),
+        ),
+        variation=(
+            Knob("lid_hover", "m the lid's plug clears the rim while carried over the container", 0.0, 0.2),
+        ),
+    )
+    carry = PickAndCarry(CONTAINER, riders=("food", LID))
+    lid = PickAndCarry(LID)
+
+    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
+        p = ctx.params
+        self._lid_grasp(ctx)
+        ctx.memo["lid_home"] = ctx.commanded_tcp()
+        held = {"gripper": "close", "attached": LID}
+        return [
+            s.gripper("lid_open", "open", steps=int(p["open_steps"])),
+            s.free("lid_pre", "lid_pre"),
+            s.linear("lid_approach", "lid_grasp", allow=(("hand", LID),)),
+            s.hold("lid_grasp_settle", steps=int(p["grasp_settle_steps"])),
+            s.gripper("lid_close", "close", steps=int(p["close_steps"])),
+            s.linear("lid_lift", "lid_lift", allow=((LID, "table"),), **held),  # type: ignore[arg-type]
+            s.free("lid_carry", "lid_above", speed=float(p["carry_speed"]), **held),  # type: ignore[arg-type]
+            s.hold("lid_steady", steps=int(p["grasp_settle_steps"]), gripper="close"),
+            s.guarded("lid_seat", "lid_seated", until=s.force(CONTAINER, float(p["seat_force"])),
+                      max_force=float(p["seat_max_force"]), speed=float(p["seat_speed"]), gripper="close",
+                      attached=LID),
+            s.gripper("lid_release", "open", steps=int(p["release_steps"])),
+            s.linear("lid_retreat", "lid_retreat", allow=(("hand", LID),)),
+            s.free("lid_home", "lid_home", riders=(LID,)),
+            *self.carry.segments(ctx),
+        ]
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """The container's pick-and-carry check, plus: a reachable lid grasp from which the arm also reaches
+        the pose over the container. Returns ``{"grasps": container ids, "lid_grasps": lid ids}``."""
+        facts = self.carry.feasibility(ctx, min_grasps)
+        lid_grasps = self.lid.reachable_grasps(ctx)
+        if not lid_grasps:
+            n = len(ctx.grasps.get(LID, ()))
+            raise Infeasible("reach.lid", f"none of the {n} valid grasps of the lid is reachable")
+        tcp_t_lid = Pose.from_matrix(np.linalg.inv(lid_grasps[0].matrix()))
+        if self._over_container(ctx, tcp_t_lid, 0.05) is None:
+            raise Infeasible("reach.seat", "the arm cannot hold the lid over the container")
+        return {**facts, "lid_grasps": tuple(g.id for g in lid_grasps)}
+
+    # -- runtime targets ---------------------------------------------------------------------------------
+    def resolve(self, name: str, ctx: Context) -> Pose:
+        if name.startswith("lid_"):
+            return self._lid_target(name, ctx)
+        return self.carry.resolve(name, ctx) or super().resolve(name, ctx)
+
+    def _lid_grasp(self, ctx: Context) -> Grasp:
+        ids = ctx.task.gate.get("lid_grasps")
+        grasps = self.lid.reachable_grasps(ctx) if ids is None else tuple(
+            g for g in ctx.grasps.get(LID, ()) if g.id in ids)
+        if not grasps:
+            raise AttemptFailed("no_grasp", "no valid grasp of the lid is reachable")
+        grasp = grasps[ctx.variation.pick(len(grasps))]
+        ctx.memo["lid_grasp"] = grasp
+        return grasp
+
+    def _lid_target(self, name: str, ctx: Context) -> Pose:
+        if name in ("lid_pre", "lid_grasp"):
+            grasp = Pose.from_matrix(ctx.object_pose(LID).matrix() @ ctx.memo["lid_grasp"].matrix())
+            if name == "lid_grasp":
+                return grasp
+            return Pose(grasp.pos - grasp.rotation()[:, 2] * ctx.variation["grasp_standoff"], grasp.quat)
+        if name == "lid_home":
+            return ctx.memo["lid_home"]
+        tcp = ctx.commanded_tcp()
+        if name == "lid_lift":
+            low = LowestPoint(ctx.scene.model, ctx.scene.object_geom_ids(LID))(ctx.scene.data)
+            cont = ctx.object_pose(CONTAINER)
+            rim = cont.pos[2] + float(ctx.scene.object_model(CONTAINER).size[2])
+            rise = max(float(ctx.variation["lift_height"]), rim + ctx.variation["lid_hover"] - low)
+            return Pose(tcp.pos + np.array([0.0, 0.0, rise]), tcp.quat)
+        if name == "lid_retreat":
+            return Pose(tcp.pos - tcp.rotation()[:, 2] * ctx.variation["grasp_standoff"], tcp.quat)
+        if name in ("lid_above", "lid_seated"):
+            tcp_t_lid = ctx.tcp_pose().inverse() @ ctx.object_pose(LID)
+            plug = float(ctx.scene.object_model(LID).geometry["plug_depth"])
+            if name == "lid_seated":  # straight down from where the lid is now: keep the carry's turn
+                down = -float(ctx.param("seat_overshoot"))
+                return self._lid_over(ctx, tcp_t_lid, down, self._yaw(ctx.object_pose(LID)))
+            up = ctx.variation["lid_hover"] + plug
+            target = self._over_container(ctx, tcp_t_lid, up)
+            if target is None:
+                raise AttemptFailed("target_fail", "no turn of the held lid over the container is reachable")
+            return target
+        return super().resolve(name, ctx)
+
+    def _over_container(self, ctx: Context, tcp_t_lid: Pose, up: float) -> Pose | None:
+        """TCP pose holding the lid level on the container's axis, ``up`` m above its seat, turned about the
+        vertical by the first of ``carry_yaws_deg`` the arm reaches (the lid is round)."""
+        rng = ctx.variation.rng("lid_yaw")
+        base = self._yaw(ctx.object_pose(LID))
+        for turn in ctx.param("carry_yaws_deg"):
+            target = self._lid_over(ctx, tcp_t_lid, up, base + math.radians(turn))
+            try:
+                ctx.planner.ik(target, ctx.q_cmd, rng)
+            except MotionFailure:
+                continue
+            return target
+        return None
+
+    @staticmethod
+    def _lid_over(ctx: Context, tcp_t_lid: Pose, up: float, yaw: float) -> Pose:
+        cont = ctx.object_pose(CONTAINER)
+        seat = float(ctx.scene.object_model(CONTAINER).geometry["seat_height"])
+        pos = cont.pos + cont.rotation()[:, 2] * (seat + up)
+        lid = Pose(pos, np.array([math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]))
+        return lid @ tcp_t_lid.inverse()
+
+    @staticmethod
+    def _yaw(pose: Pose) -> float:
+        rot = pose.rotation()
+        return math.atan2(rot[1, 0], rot[0, 0])
