@@ -3,7 +3,8 @@ an evaluator restores the exact initial scene without this checkout (format: doc
 
 One scenario is a folder ``<out>/<family>/task_NNNN/<condition>/`` holding
 
-* ``scene.mjb``: the compiled MuJoCo model (MJB: procedural textures and the room survive, unlike ``to_xml``);
+* ``scene.mjb.gz``: the compiled MuJoCo model (MJB, gzip without a timestamp; procedural textures and the room
+  survive, unlike ``to_xml``);
 * ``state.npy``: the settled initial physics state (``mgdata.record.physics.STATE_SPEC`` layout, float64);
 * ``scenario.json``: what the condition changed (provenance), seeds, prompt and the three prompt forms, the
   safety spec, goal, objects, cameras, the gate's report, and SHA-256 hashes of the two files and of the
@@ -21,6 +22,7 @@ Example::
 
 from __future__ import annotations
 
+import gzip
 import hashlib
 import io
 import json
@@ -54,7 +56,7 @@ from mgdata.tasks.variants import (
 
 FORMAT = "mgdata-scenario/1"
 MANIFEST = "manifest.json"
-SCENE, STATE, META = "scene.mjb", "state.npy", "scenario.json"
+SCENE, STATE, META = "scene.mjb.gz", "state.npy", "scenario.json"
 
 
 def variant(
@@ -136,9 +138,12 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
     task, provenance, gate = variant(recipe, base, condition)
     scene = build_scene(task)
     mjb = model_bytes(scene.model)
+    packed = gzip.compress(mjb, compresslevel=6, mtime=0)
     state = physics_state(scene.model, scene.data)
     state_bytes = _npy(state)
-    observation = first_observation_hashes(mjb, state, recipe.tasks.cameras, task.image_size)
+    observation = first_observation_hashes(
+        model_from_bytes(mjb), state, recipe.tasks.cameras, task.image_size
+    )
     meta = {
         "format": FORMAT,
         "family": recipe.family,
@@ -166,10 +171,11 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
         "gate": gate | {"facts": _jsonable(dict(task.gate))},
         "state_spec": STATE_SPEC,
         "state_size": int(state.size),
-        "files": {SCENE: _sha(mjb), STATE: _sha(state_bytes)},
+        "files": {SCENE: _sha(packed), STATE: _sha(state_bytes)},
+        "model_sha256": _sha(mjb),
         "first_observation_sha256": observation,
     }
-    write_bytes_atomic(folder / SCENE, mjb)
+    write_bytes_atomic(folder / SCENE, packed)
     write_bytes_atomic(folder / STATE, state_bytes)
     text = json.dumps(meta, indent=1, sort_keys=True) + "\n"
     write_text_atomic(folder / META, text)
@@ -188,13 +194,12 @@ def build_family(
 
 
 def first_observation_hashes(
-    mjb: bytes, state: np.ndarray, cameras: Sequence[str], size: int
+    model: mujoco.MjModel, state: np.ndarray, cameras: Sequence[str], size: int
 ) -> dict[str, str]:
-    """SHA-256 of each camera's first RGB observation, rendered from the stored model and state."""
+    """SHA-256 of each camera's first RGB observation of ``model`` (as loaded from its MJB) at ``state``."""
     from mgdata.sim.config import load_sim_config
     from mgdata.sim.renderer import CameraRig
 
-    model = model_from_bytes(mjb)
     rig = CameraRig.of_model(model, list(cameras), size, load_sim_config().render)
     try:
         set_physics_state(model, rig.data, state)
@@ -246,6 +251,9 @@ def load_scenario(folder: Path) -> tuple[mujoco.MjModel, mujoco.MjData, dict[str
     for name, blob in ((SCENE, mjb), (STATE, state_bytes)):
         if _sha(blob) != meta["files"][name]:
             raise DatasetError(f"{folder / name}: SHA-256 differs from {META}")
+    mjb = gzip.decompress(mjb)
+    if _sha(mjb) != meta["model_sha256"]:
+        raise DatasetError(f"{folder / SCENE}: the model's SHA-256 differs from {META}")
     model = model_from_bytes(mjb)
     data = mujoco.MjData(model)
     set_physics_state(model, data, np.load(io.BytesIO(state_bytes)))
@@ -262,9 +270,7 @@ def verify(out: Path) -> Iterator[tuple[str, str | None]]:
             state = np.load(io.BytesIO((folder / STATE).read_bytes()))
             if not np.array_equal(physics_state(model, data), state):
                 raise DatasetError("the restored state differs from state.npy")
-            images = first_observation_hashes(
-                (folder / SCENE).read_bytes(), state, list(meta["cameras"]), meta["image_size"]
-            )
+            images = first_observation_hashes(model, state, list(meta["cameras"]), meta["image_size"])
             bad = [c for c, h in images.items() if h != meta["first_observation_sha256"][c]]
             if bad:
                 raise DatasetError(f"first observation differs for camera(s) {', '.join(bad)}")
