@@ -95,6 +95,23 @@ def register(app: typer.Typer) -> None:
 
         typer.echo(json.dumps(read_scenario(out, family, task, condition), indent=1, sort_keys=True))
 
+    @group.command("render")
+    def render(
+        family: Annotated[str, typer.Argument(help="Family.")],
+        task: Annotated[int, typer.Argument(help="Base task id.")],
+        sheet: Annotated[Path, typer.Option(help="PNG to write.")],
+        out: Annotated[Path, typer.Option(help="Scenario folder.")] = DEFAULT_OUT,
+    ) -> None:
+        """Draw one task's five conditions side by side (front and left cameras) from the stored snapshots.
+
+        Example: mgdata scenarios render jar 0 --sheet jar_conditions.png
+        """
+        from mgdata.engine.scenarios import write_sheet
+
+        if sheet.is_dir() or not sheet.parent.is_dir():
+            raise OutputError(f"--sheet {sheet}: expected a file path in an existing folder")
+        plain_console().print(str(write_sheet(out, family, task, sheet)))
+
     @group.command("verify")
     def verify_cmd(out: Annotated[Path, typer.Option(help="Scenario folder.")] = DEFAULT_OUT) -> None:
         """Reload every scenario: file hashes, the state round trip and every camera's first observation.

@@ -281,6 +281,38 @@ def verify(out: Path) -> Iterator[tuple[str, str | None]]:
             yield entry["path"], str(err)
 
 
+def write_sheet(
+    out: Path,
+    family: str,
+    task_id: int,
+    path: Path,
+    cameras: Sequence[str] = ("front", "left"),
+    size: int = 256,
+) -> Path:
+    """A PNG of one task's stored conditions side by side (one row per camera), rendered from the snapshots."""
+    import cv2
+
+    from mgdata.sim.config import load_sim_config
+    from mgdata.sim.renderer import CameraRig, contact_sheet
+
+    rows: dict[str, dict[str, np.ndarray]] = {c: {} for c in cameras}
+    for condition in CONDITIONS:
+        model, data, _ = load_scenario(scenario_dir(out, family, task_id, condition))
+        rig = CameraRig.of_model(model, list(cameras), size, load_sim_config().render)
+        try:
+            images = rig.render(data)
+        finally:
+            rig.close()
+        for c in cameras:
+            rows[c][f"{condition} ({c})"] = images[c]
+    sheet = np.concatenate([contact_sheet(rows[c]) for c in cameras], axis=0)
+    ok, png = cv2.imencode(".png", cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise DatasetError(f"{path}: could not encode the sheet")
+    write_bytes_atomic(path, png.tobytes())
+    return path
+
+
 # -- helpers ----------------------------------------------------------------------------------------------
 def _inputs(recipe: Recipe, task_id: int, condition: str) -> dict[str, Any]:
     return {

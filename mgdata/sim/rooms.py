@@ -373,7 +373,7 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         name="room_light",
         pos=[0.4, 0.0, floor_z + WALL_HEIGHT - 0.1],
         dir=[0.0, 0.0, -1.0],
-        diffuse=list(_shade(style.light, 0.25)),
+        diffuse=list(_shade(style.light, 0.08)),
         specular=[0.0, 0.0, 0.0],
         castshadow=False,
         type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
