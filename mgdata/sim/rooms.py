@@ -327,7 +327,7 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         "light": _shade(style.wall, 1.1),
         "leaf": (0.18, 0.45, 0.16),
     }
-    body = spec.worldbody.add_body(name="room")
+    body = spec.worldbody  # static geoms of the world body: no new body, so the state size is unchanged
     h = WALL_HEIGHT / 2.0
     zc = floor_z + h
     (x0, x1), (y0, y1) = ROOM_X, ROOM_Y
