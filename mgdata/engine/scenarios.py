@@ -289,7 +289,7 @@ def write_sheet(
     cameras: Sequence[str] = ("front", "left"),
     size: int = 256,
 ) -> Path:
-    """A PNG of one task's stored conditions side by side (one row per camera), rendered from the snapshots."""
+    """A PNG of one task's stored conditions side by side (a row per camera), rendered from the snapshots."""
     import cv2
 
     from mgdata.sim.config import load_sim_config

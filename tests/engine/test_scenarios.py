@@ -187,6 +187,7 @@ def _bare_room(name: str) -> mujoco.MjModel:
     return spec.compile()
 
 
+@pytest.mark.slow
 def test_every_room_style_builds_and_differs() -> None:
     pixels = []
     for name in ROOM_NAMES:
@@ -296,6 +297,7 @@ def test_location_variant_moves_objects_and_passes_the_gate() -> None:
     assert TABLE_X[0] < jar_b[0] < TABLE_X[1] and TABLE_Y[0] < jar_b[1] < TABLE_Y[1] and jar_b[2] > -0.01
 
 
+@pytest.mark.slow
 def test_a_location_rule_no_draw_can_meet_is_an_error_not_a_dropped_variant(tmp_path: Path) -> None:
     recipes = tmp_path / "recipes"
     shutil.copytree(Path(load_recipe("jar").path).parent, recipes)
@@ -312,6 +314,7 @@ def test_a_location_rule_no_draw_can_meet_is_an_error_not_a_dropped_variant(tmp_
         variant(recipe, base, "location")
 
 
+@pytest.mark.slow
 def test_scenarios_are_byte_deterministic_across_processes_and_reload_bit_identically(tmp_path: Path) -> None:
     cmd = [*MGDATA, "scenarios", "build", "--family", "jar", "--tasks", "1", "--condition", "target"]
     proc = subprocess.run([*cmd, "--out", str(tmp_path / "a")], capture_output=True, text=True, timeout=600)
@@ -354,6 +357,7 @@ def test_malformed_ood_is_a_recipe_error(tmp_path: Path, edit: str, message: str
     assert message in str(err.value) and str(path) in str(err.value)
 
 
+@pytest.mark.slow
 def test_malformed_ood_is_one_error_line_from_the_cli(tmp_path: Path) -> None:
     root = tmp_path / "root"
     shutil.copytree(Path(load_recipe("jar").path).parent, root / "recipes")
@@ -373,9 +377,23 @@ def test_malformed_ood_is_one_error_line_from_the_cli(tmp_path: Path) -> None:
     assert not (tmp_path / "s").exists()
 
 
-def test_unknown_family_and_condition_are_one_error_line(tmp_path: Path) -> None:
+def test_unknown_family_is_one_error_line(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [*MGDATA, "scenarios", "build", "--family", "nosuch", "--out", str(tmp_path / "s")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "no recipe for family 'nosuch'" in lines[0], (
+        proc.stderr
+    )
+    assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.slow
+def test_bad_condition_tasks_and_folder_are_one_error_line(tmp_path: Path) -> None:
     for args, message in (
-        (("--family", "nosuch"), "no recipe for family 'nosuch'"),
         (("--family", "jar", "--condition", "lighting"), "--condition 'lighting'"),
         (("--family", "jar", "--tasks", "99"), "jar has tasks 0 … 25, not 99"),
     ):
@@ -397,3 +415,20 @@ def test_unknown_family_and_condition_are_one_error_line(tmp_path: Path) -> None
     assert (
         proc.returncode == 2 and proc.stderr.startswith("error: ") and "no scenario manifest" in proc.stderr
     )
+
+
+def test_a_scenario_is_byte_deterministic_and_verifies(tmp_path: Path) -> None:
+    recipe = load_family_recipe("jar")
+    for out in ("a", "b"):
+        build_scenario(recipe, 0, "environment", tmp_path / out)
+        write_manifest(tmp_path / out)
+    files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
+    assert len(files) == 4
+    for f in files:
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
+    _, data, meta = load_scenario(scenario_dir(tmp_path / "a", "jar", 0, "environment"))
+    scene = build_scene(variant(recipe, base_task(recipe, 0), "environment")[0])
+    assert meta["room"] and np.array_equal(data.qpos, scene.data.qpos)
+    assert list(verify(tmp_path / "a")) == [("jar/task_0000/environment", None)]
+    (tmp_path / "a" / "jar/task_0000/environment/state.npy").write_bytes(b"x")  # tampered
+    assert "SHA-256 differs" in str(next(iter(verify(tmp_path / "a")))[1])
