@@ -315,8 +315,12 @@ def write_sheet(
 
 # -- helpers ----------------------------------------------------------------------------------------------
 def _inputs(recipe: Recipe, task_id: int, condition: str) -> dict[str, Any]:
+    """What a kept scenario must have been built from: the recipe, spec, sim and motion settings and grasps
+    (``mgdata.engine.generate.inputs_digest``), the versions, the task and condition."""
+    from mgdata.engine.generate import inputs_digest
+
     return {
-        "recipe_digest": recipe.digest,
+        "inputs_digest": inputs_digest(recipe, grasps_dir()),
         "mgdata": __version__,
         "mujoco": mujoco.__version__,
         "task_id": task_id,
