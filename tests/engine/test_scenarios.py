@@ -39,7 +39,7 @@ from mgdata.tasks.base import draw_task
 from mgdata.tasks.ood import GUARD, PALETTE
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import family_recipes, load_recipe
-from mgdata.tasks.variants import language_variant, mean_colour, target_variant
+from mgdata.tasks.variants import language_variant, location_proposal, mean_colour, target_variant
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 NAME_FIELDS = ("names", "paths", "names_map")
@@ -432,3 +432,31 @@ def test_a_scenario_is_byte_deterministic_and_verifies(tmp_path: Path) -> None:
     assert list(verify(tmp_path / "a")) == [("jar/task_0000/environment", None)]
     (tmp_path / "a" / "jar/task_0000/environment/state.npy").write_bytes(b"x")  # tampered
     assert "SHA-256 differs" in str(next(iter(verify(tmp_path / "a")))[1])
+
+
+def test_units_move_rigidly_and_an_axis_direction_is_followed(tmp_path: Path) -> None:
+    shutil.copytree(Path(load_recipe("clutter_dry").path).parent, tmp_path / "recipes")
+    path = tmp_path / "recipes" / "clutter_dry.toml"
+    text = path.read_text()
+    path.write_text(
+        text[: text.index("[ood]")] + '[ood.location]\ngrouping = "units"\n'
+        'units = [["target"], ["obstacle"]]\ndirection = { of = "target", axis = [1.0, 0.0] }\n'
+    )
+    recipe = load_recipe(path)
+    base = _placed(recipe, 2)
+    moved = 0
+    for attempt in range(8):
+        try:
+            task, prov = location_proposal(base, recipe, attempt)
+        except LayoutRejected:
+            continue
+        moved += 1
+        delta = {o.name: np.subtract(task.object(o.name).pos, o.pos) for o in base.objects}
+        obstacles = [d for n, d in delta.items() if n.startswith("obstacle")]
+        assert all(np.allclose(d, obstacles[0], atol=1e-12) for d in obstacles)  # one rigid unit
+        axis = np.array([np.cos(base.object("target").yaw), np.sin(base.object("target").yaw)])
+        for d in (delta["target"], obstacles[0]):
+            assert abs(d[2]) == 0.0 and np.linalg.norm(d[:2]) > 0.0
+            assert abs(abs(np.dot(d[:2], axis)) - np.linalg.norm(d[:2])) < 1e-9 or prov["fallback"]
+        assert task.goal == base.goal and [u["objects"][0] for u in prov["units"]] == ["target", "obstacle_0"]
+    assert moved >= 1
