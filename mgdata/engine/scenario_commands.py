@@ -36,6 +36,7 @@ def register(app: typer.Typer) -> None:
                 help="Condition (repeatable): base, target, language, location, environment; default: all."
             ),
         ] = None,
+        workers: Annotated[int, typer.Option(help="Processes building tasks in parallel.")] = 1,
     ) -> None:
         """Build (or resume) the locked scenarios of the chosen families into OUT, then rewrite
         OUT/manifest.json. Complete scenarios with the same inputs are kept; the bytes are deterministic.
@@ -48,6 +49,8 @@ def register(app: typer.Typer) -> None:
         from mgdata.tasks.recipe import family_recipes
         from mgdata.tasks.variants import CONDITIONS
 
+        if workers < 1:
+            raise RecipeError(f"--workers must be at least 1, got {workers}")
         if out.exists() and not out.is_dir():
             raise OutputError(f"--out {out}: exists and is not a folder")
         conditions = tuple(condition or CONDITIONS)
@@ -68,7 +71,7 @@ def register(app: typer.Typer) -> None:
         n = 0
         for recipe in recipes:
             ids = chosen or tuple(range(recipe.tasks.count))
-            for entry in build_family(recipe, out, ids, conditions):
+            for entry in build_family(recipe, out, ids, conditions, workers):
                 n += 1
                 console.print(f"{entry['path']}  {entry['changes']}")
         write_manifest(out)

@@ -26,8 +26,10 @@ import gzip
 import hashlib
 import io
 import json
+import multiprocessing
 from collections import Counter
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -183,14 +185,35 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
 
 
 def build_family(
-    recipe: Recipe, out: Path, task_ids: Sequence[int] | None = None, conditions: Sequence[str] = CONDITIONS
+    recipe: Recipe,
+    out: Path,
+    task_ids: Sequence[int] | None = None,
+    conditions: Sequence[str] = CONDITIONS,
+    workers: int = 1,
 ) -> Iterator[dict[str, Any]]:
-    """Every (task, condition) of ``recipe`` in order; the manifest is rewritten after each task."""
+    """Every (task, condition) of ``recipe``, yielded in task order; the manifest is rewritten after each
+    task. ``workers`` > 1 builds tasks in that many ``spawn``-ed processes (the files do not depend on it)."""
     ids = tuple(range(recipe.tasks.count)) if task_ids is None else tuple(task_ids)
-    for k in ids:
-        for condition in conditions:
-            yield build_scenario(recipe, k, condition, out)
-        write_manifest(out)
+    jobs = [(str(recipe.path), k, tuple(conditions), str(out)) for k in ids]
+    if workers <= 1:
+        results: Iterator[list[dict[str, Any]]] = map(_build_task, jobs)
+        for entries in results:
+            yield from entries
+            write_manifest(out)
+        return
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        for entries in pool.map(_build_task, jobs):
+            yield from entries
+            write_manifest(out)
+
+
+def _build_task(job: tuple[str, int, tuple[str, ...], str]) -> list[dict[str, Any]]:
+    """One task's conditions (a worker's unit of work; the recipe is loaded by path in the worker)."""
+    from mgdata.engine.skeleton import load_family_recipe
+
+    path, k, conditions, out = job
+    recipe = load_family_recipe(Path(path))
+    return [build_scenario(recipe, k, c, Path(out)) for c in conditions]
 
 
 def first_observation_hashes(
