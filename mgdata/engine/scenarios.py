@@ -22,6 +22,7 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import hashlib
 import io
@@ -31,6 +32,7 @@ from collections import Counter
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import mujoco
@@ -52,6 +54,7 @@ from mgdata.tasks.variants import (
     environment_variant,
     language_variant,
     location_proposal,
+    ood_settings,
     prompt_forms,
     target_variant,
 )
@@ -91,8 +94,7 @@ def variant(
 
 
 def _location(recipe: Recipe, base: TaskSpec, grasps: Any) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
-    rule = recipe.ood.location if recipe.ood else None
-    tries = rule.tries if rule else 12
+    tries = ood_settings(recipe).location.tries
     rejected: Counter[str] = Counter()
     last = ""
     for attempt in range(tries):
@@ -103,8 +105,8 @@ def _location(recipe: Recipe, base: TaskSpec, grasps: Any) -> tuple[TaskSpec, di
             rejected[why.rule] += 1
             last = str(why)
             continue
-        except SceneError as why:  # overlapping initial poses after the move
-            rejected["location.overlap"] += 1
+        except SceneError as why:  # the scene builder's own check: overlapping initial poses after the move
+            rejected["location.scene"] += 1
             last = str(why)
             continue
         return (
@@ -119,9 +121,6 @@ def _location(recipe: Recipe, base: TaskSpec, grasps: Any) -> tuple[TaskSpec, di
 
 
 def _with_gate(task: TaskSpec, facts: dict[str, Any]) -> TaskSpec:
-    import dataclasses
-    from types import MappingProxyType
-
     return dataclasses.replace(task, gate=MappingProxyType(dict(facts)))
 
 

@@ -52,7 +52,7 @@ def mean_colour(model: str) -> tuple[float, float, float]:
 def target_variant(task: TaskSpec, recipe: Recipe) -> tuple[TaskSpec, Provenance]:
     """Recolour the target role's first instance with palette entry ``task_id mod 6`` (or the next one far
     enough from its mean colour)."""
-    role = _ood(recipe).target
+    role = ood_settings(recipe).target
     instance = _instances(task, recipe)[role][0]
     mean = np.array(mean_colour(task.object(instance).model))
     skipped = []
@@ -85,7 +85,7 @@ def target_variant(task: TaskSpec, recipe: Recipe) -> tuple[TaskSpec, Provenance
 # -- language -------------------------------------------------------------------------------------------
 def language_variant(task: TaskSpec, recipe: Recipe) -> tuple[TaskSpec, Provenance]:
     """The prompt with the recipe's swaps applied to the template's literal text (names untouched)."""
-    ood = _ood(recipe)
+    ood = ood_settings(recipe)
     names = _template_names(recipe.prompt, task.prompt, str(recipe.path))
     pieces, applied = [], []
     for literal, field, spec, conv in string.Formatter().parse(recipe.prompt):
@@ -151,7 +151,7 @@ def _template_names(template: str, prompt: str, where: str) -> dict[str, str]:
 # -- environment ----------------------------------------------------------------------------------------
 def environment_variant(task: TaskSpec, recipe: Recipe) -> tuple[TaskSpec, Provenance]:
     """The task inside a room style drawn from ``[ood.environment] rooms`` by the task's own seed."""
-    rooms = _ood(recipe).rooms
+    rooms = ood_settings(recipe).rooms
     rng = np.random.default_rng(np.random.SeedSequence([recipe.tasks.seed, task.task_id, _ENV_STREAM]))
     room = rooms[int(rng.integers(len(rooms)))]
     return dataclasses.replace(task, condition="environment", room=room), {
@@ -168,7 +168,7 @@ def location_proposal(task: TaskSpec, recipe: Recipe, attempt: int) -> tuple[Tas
     Raises:
         LayoutRejected: the clamped move is too small, footprints overlap, or the goal is no longer clear.
     """
-    rule = _ood(recipe).location
+    rule = ood_settings(recipe).location
     half = rule.tries // 2
     fallback = attempt >= half
     rng = np.random.default_rng(
@@ -231,7 +231,7 @@ def location_proposal(task: TaskSpec, recipe: Recipe, attempt: int) -> tuple[Tas
 
 def _units(task: TaskSpec, recipe: Recipe, instances: dict[str, list[str]]) -> list[list[str]]:
     """Instance names moved together, each unit with the guests of its members."""
-    rule = _ood(recipe).location
+    rule = ood_settings(recipe).location
     standing = _standing(recipe, instances)
     if rule.grouping == "pack":
         groups = [[n for n in (o.name for o in task.objects) if n in standing]]
@@ -287,7 +287,7 @@ def _extent(task: TaskSpec, names: list[str]) -> float:
 def _direction(
     task: TaskSpec, recipe: Recipe, instances: dict[str, list[str]], rng: np.random.Generator
 ) -> np.ndarray:
-    rule = _ood(recipe).location.direction
+    rule = ood_settings(recipe).location.direction
     if rule.of is None:
         angle = float(rng.uniform(-math.pi, math.pi))
         return np.array([math.cos(angle), math.sin(angle)])
@@ -340,6 +340,6 @@ def _instances(task: TaskSpec, recipe: Recipe) -> dict[str, list[str]]:
     return out
 
 
-def _ood(recipe: Recipe) -> OodSettings:
+def ood_settings(recipe: Recipe) -> OodSettings:
     """The recipe's ``[ood]`` (defaults for a Recipe built without :func:`load_recipe`)."""
     return recipe.ood or default_ood(recipe.layout)
