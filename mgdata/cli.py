@@ -49,6 +49,7 @@ def _root(
 COMMAND_MODULES: tuple[str, ...] = (
     "mgdata.grasps.commands",
     "mgdata.engine.commands",
+    "mgdata.engine.scenario_commands",
     "mgdata.record.commands",
     "mgdata.ltl.commands",
     "mgdata.annotate.commands",

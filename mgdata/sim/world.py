@@ -22,9 +22,11 @@ import numpy as np
 
 from mgdata.errors import RecipeError, SceneError
 from mgdata.sim import robot
+from mgdata.sim.appearance import apply_tint
 from mgdata.sim.assets import ObjectModel, get_model
 from mgdata.sim.cameras import add_cameras
 from mgdata.sim.particles import add_particles, particle_models
+from mgdata.sim.rooms import add_room
 from mgdata.tasks.taskspec import TaskSpec
 
 if TYPE_CHECKING:
@@ -208,6 +210,10 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
             body.add_freejoint(name=f"{obj.name}/free")
         model.add_to(spec, body, prefix=f"{obj.name}/")
     add_particles(spec, task, models, particle_models(models))
+    for name, tint in task.tint.items():  # the target OOD variant: material only
+        apply_tint(spec, name, tint)
+    if task.room:  # the environment OOD variant: visual only
+        add_room(spec, task.room, FLOOR_Z)
     _add_goal(spec, task)
     add_cameras(spec, task.robot_base, task.robot_base_yaw, robot.HAND_BODY, sim.cameras)
     return spec, models

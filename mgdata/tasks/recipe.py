@@ -17,6 +17,7 @@ Top-level keys and tables::
     [layout]      roles, goal and display names for the generic placer (mgdata.tasks.layout_rules)
     [variation]   knob = [low, high]      (drawn per attempt; draw 0 takes the midpoints)
     [params]      skeleton tunables (copied into every TaskSpec.params)
+    [ood]         how the OOD variants are built (mgdata.tasks.ood; optional, docs/scenarios.md)
 
 ``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
 (:class:`mgdata.tasks.recipe_keys.RecipeKeys`); :func:`check_recipe_keys` checks them (names, types, ranges)
@@ -45,6 +46,7 @@ from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import recipes_dir
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
 from mgdata.tasks.layout_rules import Layout, parse_layout
+from mgdata.tasks.ood import OodSettings, parse_ood
 from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
@@ -91,6 +93,7 @@ class Recipe:
         variation: knob name -> (low, high).
         params: skeleton tunables.
         digest: hash of the recipe and spec files (a dataset records it; resume requires the same).
+        ood: how its OOD variants are built (``[ood]``, :mod:`mgdata.tasks.ood`; defaults if absent).
     """
 
     family: str
@@ -104,6 +107,7 @@ class Recipe:
     variation: Mapping[str, tuple[float, float]]
     params: Mapping[str, Any]
     digest: str
+    ood: OodSettings | None = None
 
 
 def recipe_path(family: str) -> Path:
@@ -160,13 +164,14 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     layout = parse_layout(_table(raw, "layout", src), f"{src}: [layout]")
     variation = {k: _range(v, f"{src}: [variation] {k}") for k, v in _table(raw, "variation", src).items()}
     params = _table(raw, "params", src, required=False)
-    top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params"}
+    ood = parse_ood(_table(raw, "ood", src, required=False), layout, f"{src}: [ood]")
+    top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params", "ood"}
     unknown = set(raw) - top
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
     return Recipe(family, skeleton, path, spec, prompt, tasks, success, layout,
-                  MappingProxyType(variation), MappingProxyType(params), digest)
+                  MappingProxyType(variation), MappingProxyType(params), digest, ood)
 
 
 def _read_toml(path: Path) -> dict[str, Any]:

@@ -66,6 +66,8 @@ class TaskSpec:
         params: family tunables the skeleton reads (lift height, standoffs …), copied from the recipe.
         draw: which layout draw of the task this is (the initial-state gate may reject earlier ones).
         gate: facts the initial-state gate established (e.g. ``grasps``: the reachable grasp ids).
+        tint: instance name -> RGB tint (0…1) recolouring it (the target OOD variant; material only).
+        room: the room style the table stands in (``mgdata.sim.rooms``; ``""``: plain surroundings).
     """
 
     family: str
@@ -83,6 +85,8 @@ class TaskSpec:
     params: Mapping[str, Any] = field(default_factory=_frozen)
     draw: int = 0
     gate: Mapping[str, Any] = field(default_factory=_frozen)
+    tint: Mapping[str, tuple[float, float, float]] = field(default_factory=_frozen)
+    room: str = ""
 
     def object(self, name: str) -> ObjectPlacement:
         for obj in self.objects:
