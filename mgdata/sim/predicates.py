@@ -281,17 +281,10 @@ def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
 
 
 def _dust_on(scene: Scene, subject: str) -> list[str]:
-    """Dust instances whose placement point lay on ``subject``'s footprint (or ``subject`` itself if dust)."""
+    """Dust instances lying on ``subject`` (``Scene.dust_hosts``), or ``subject`` itself if it is dust."""
     if subject in scene.dust.mocap_ids:
         return [subject]
-    placement, size = scene.task.object(subject), scene.objects[subject].size
-    c, s = np.cos(placement.yaw), np.sin(placement.yaw)
-    found = []
-    for name in scene.dust.mocap_ids:
-        d = np.asarray(scene.task.object(name).pos) - np.asarray(placement.pos)
-        x, y = c * d[0] + s * d[1], -s * d[0] + c * d[1]
-        if abs(x) <= size[0] / 2 and abs(y) <= size[1] / 2 and -0.005 <= d[2] <= size[2] + 0.01:
-            found.append(name)
+    found = [name for name, host in scene.dust_hosts.items() if host == subject]
     if not found:
         raise SpecError(f"covered: no dust lies on {subject!r} (dust instances: "
                         f"{', '.join(scene.dust.mocap_ids) or 'none'})")
