@@ -147,6 +147,14 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
          Param("max_angular_speed", float, 0.3, 0.0, 100.0, "rad/s of the object relative to the hand")),
     _sig("covered", "more than a fraction of the dust on the object remains",
          Param("min_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
+    _sig("clean", "at most a fraction of the dust on the object remains (covered's complement)",
+         Param("max_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
+    _sig("inside", "the object's bounding-box centre is inside a container's cavity",
+         Param("container", str, None, doc="the container's instance name"),
+         Param("margin", float, 0.005, 0.0, 0.05, "m sideways and below the floor"),
+         Param("headroom", float, 0.0, 0.0, 0.2, "m above the rim that still counts")),
+    _sig("near_start", "the object's origin is within a distance of where the task placed it",
+         Param("max_distance", float, None, 0.0, 10.0, "m")),
 ]))
 
 PROMPT_FORMS: tuple[str, ...] = ("none", "nl", "ltl")

@@ -1,0 +1,345 @@
+"""Dusty: wipe the dusty destination clean with a sponge, then pour the food into it from its carrier.
+
+The paper's "five-phase wipe-then-pour routine", on a table holding a sponge, a destination tray whose floor
+carries a dust patch (``dust``, lying on ``dest``: the specks move with it and only a sponge touching it
+wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a food item (``food``) inside:
+
+1. **Pick the sponge** (its DB top grasp): pre-grasp, approach, close, lift above the tray's rim.
+2. **Wipe**: move the sponge over the first corner of the dust patch, press it onto the tray's floor with a
+   guarded move (stops at ``press_force`` N, never more than ``max_press_force``), then wipe in a zig-zag of
+   sliding guarded strokes over the patch (``press=`` down: in contact all the way, the force regulated
+   between ``stroke_force`` and ``max_stroke_force``; light enough that the tray does not slide along),
+   rows ``row_overlap`` of the sponge's narrow width apart, the sponge kept ``wall_clearance`` inside the
+   tray's walls. Lift off. Dust left after the strokes ends the attempt (``target_fail``, "wipe
+   incomplete").
+3. **Put the sponge back** where it was picked up, release, retreat.
+4. **Grasp the source** (Layer 2's pick): a DB rim pinch at least ``food_clearance`` (plus the food's half
+   width) from the food, round-robin over the reachable ones; lift clear of everything.
+5. **Pour**: carry the bowl level in a straight line to the pour stance, then tilt it in ``pour_steps``
+   turns about the horizontal axis through the TCP perpendicular to the bowl's grasp radius, its far side
+   down, to ``pour_angle_deg``. The stance is computed so that at the final tilt the bowl's mouth is over
+   the tray's centre and its lowest corner ``pour_clearance`` above the tray's rim; hold while the food
+   falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at rest).
+
+The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
+pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mgdata.engine import segment as s
+from mgdata.engine.context import Context
+from mgdata.engine.gate import AttemptFailed
+from mgdata.engine.init_gate import Infeasible
+from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
+from mgdata.grasps.db import Grasp
+from mgdata.motion import Pose
+from mgdata.sim.geometry import box_corners
+from mgdata.sim.robot import ROOT_BODY
+
+_PICK_PARAMS = ("open_steps", "grasp_settle_steps", "close_steps", "lift_margin", "carry_speed",
+                "grasp_margin", "grasp_clearance", "reach_standoff")
+_PICK_KNOBS = ("grasp_standoff", "grasp_height", "lift_height")
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class CarrierPick(PickAndCarry):
+    """Pick-and-carry of the source carrier whose grasps keep away from the food riding in it: the TCP at
+    least the food's half width plus ``food_clearance`` from the food's centre, horizontally."""
+
+    food: str = "food"
+
+    def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
+        return tuple(g for g in super().reachable_grasps(ctx)
+                     if self.clear_of_food(ctx, g) and self.far_side(ctx, g))
+
+    def far_side(self, ctx: Context, grasp: Grasp) -> bool:
+        """Is the grasp on the carrier's far side (its radius within ``pour_side_deg`` of the direction away
+        from the robot)? Tilting the far side's opposite down then turns the hand to point away from the
+        robot, a pose the arm reaches past 90°; from the near side it would have to point back at itself."""
+        obj = ctx.object_pose(self.obj)
+        radial = (obj.matrix() @ grasp.matrix())[:2, 3] - obj.pos[:2]
+        away = obj.pos[:2] - ctx.scene.data.xpos[ctx.scene.model.body(ROOT_BODY).id][:2]
+        cos = radial @ away / max(np.linalg.norm(radial) * np.linalg.norm(away), 1e-9)
+        return bool(cos >= math.cos(math.radians(float(ctx.param("pour_side_deg")))))
+
+    def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
+        tcp = ctx.object_pose(self.obj).matrix() @ grasp.matrix()
+        food = ctx.scene.object_model(self.food)
+        centre = ctx.object_pose(self.food).pos
+        need = float(food.geometry.get("width", max(food.size[:2]))) / 2 + float(ctx.param("food_clearance"))
+        return bool(np.hypot(*(tcp[:2, 3] - centre[:2])) >= need)
+
+
+def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix of ``angle`` (rad) about the unit ``axis``."""
+    a = axis / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
+
+
+@register
+class DustySkeleton(FamilySkeleton):
+    """The dusty family's demonstration (see the module docstring)."""
+
+    name = "dusty"
+    recipe_keys = RecipeKeys(
+        params=(*(p for p in PICK_AND_CARRY_KEYS.params if p.name in _PICK_PARAMS),
+                Param("food_clearance", float, "m a carrier grasp keeps from the food's edge", 0.0, 0.2),
+                Param("pour_side_deg", float, "a carrier grasp's radius is at most this far from the "
+                      "direction away from the robot", 0.0, 180.0),
+                Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved",
+                      0.0, 0.2),
+                Param("wipe_hover", float, "m above the tray's floor the press starts", 0.0, 0.1),
+                Param("press_force", float, "N at which the guarded press stops", 0.1, 50.0),
+                Param("max_press_force", float, "N the press never exceeds", 0.1, 100.0),
+                Param("stroke_force", float, "N the strokes press with at least", 0.1, 50.0),
+                Param("max_stroke_force", float, "N the strokes never exceed", 0.1, 100.0),
+                Param("row_overlap", float, "spacing of the stroke rows, fraction of the sponge's width",
+                      0.1, 1.0),
+                Param("wall_clearance", float, "m the sponge keeps inside the tray's walls", 0.0, 0.1),
+                Param("wipe_speed", float, "fraction of the planned speed while wiping", 0.01, 1.0),
+                Param("place_drop", float, "m above its start the sponge is released", 0.0, 0.05),
+                Param("pour_steps", int, "turns the tilt is split into", 1, 50),
+                Param("pour_speed", float, "fraction of the planned speed while tilting", 0.01, 1.0),
+                Param("pour_line_deg", float, "tilts up to this are straight turns about the TCP; beyond, "
+                      "joint-space moves (the wrist passes a singularity near 90°)", 0.0, 180.0),
+                Param("pour_clearance", float, "m the tilted bowl's lowest corner keeps above the rim",
+                      0.0, 0.3),
+                Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
+                      1, 2000)),
+        variation=(*(k for k in PICK_AND_CARRY_KEYS.variation if k.name in _PICK_KNOBS),
+                   Knob("pour_angle_deg", "final tilt of the carrier (deg)", 30.0, 150.0),
+                   Knob("wipe_press_dx", "m offset of the first press along the patch", -0.02, 0.02)),
+    )
+
+    # -- segments ------------------------------------------------------------------------------------------
+    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
+        p = ctx.params
+        held = {"gripper": "close", "attached": "sponge"}
+        on_tray = (("sponge", "dest"),)
+        strokes = 2 * len(self._rows(ctx)) - 1
+        n, angle = int(p["pour_steps"]), float(ctx.variation["pour_angle_deg"])
+        tilting = {"gripper": "close", "attached": "source", "riders": ("food",),
+                   "speed": float(p["pour_speed"])}
+        pour = [s.linear(f"pour_{k}", f"pour_{k}", orientation="slerp", **tilting)  # type: ignore[arg-type]
+                if angle * (k + 1) / n <= float(p["pour_line_deg"])
+                else s.free(f"pour_{k}", f"pour_{k}", **tilting)  # type: ignore[arg-type]
+                for k in range(n)]
+        return [
+            s.gripper("sponge_open", "open", steps=int(p["open_steps"])),
+            s.free("sponge_pre", "sponge_pre"),
+            s.linear("sponge_approach", "sponge_grasp", allow=(("hand", "sponge"),)),
+            s.hold("sponge_settle", steps=int(p["grasp_settle_steps"])),
+            s.gripper("sponge_close", "close", steps=int(p["close_steps"])),
+            s.linear("sponge_lift", "sponge_lift", allow=(("sponge", "table"),), **held),  # type: ignore[arg-type]
+            s.free("wipe_above", "wipe_above", **held),  # type: ignore[arg-type]
+            s.guarded("wipe_press", (0.0, 0.0, -1.0), until=s.force("dest", float(p["press_force"])),
+                      max_force=float(p["max_press_force"]), max_distance=float(p["wipe_hover"]) + 0.004,
+                      gripper="close", attached="sponge", allow=(("sponge", "table"),)),
+            *[s.guarded(f"wipe_{i}", f"wipe_{i}", until=s.force("dest", float(p["stroke_force"])),
+                        max_force=float(p["max_stroke_force"]), press=(0.0, 0.0, -1.0),
+                        speed=float(p["wipe_speed"]), gripper="close", attached="sponge", allow=on_tray)
+              for i in range(strokes)],
+            s.linear("wipe_up", "wipe_up", allow=on_tray, **held),  # type: ignore[arg-type]
+            s.free("sponge_back", "sponge_back", **held),  # type: ignore[arg-type]
+            s.linear("sponge_place", "sponge_place", allow=(("sponge", "table"),), **held),  # type: ignore[arg-type]
+            s.gripper("sponge_release", "open", steps=int(p["open_steps"])),
+            s.linear("sponge_retreat", "sponge_retreat", allow=(("hand", "sponge"),)),
+            *self.carrier.pick_segments(ctx),
+            s.free("carry", "pour_start", gripper="close", attached="source", riders=("food",),
+                   speed=float(p["carry_speed"])),
+            *pour,
+            s.hold("pour_settle", steps=int(p["pour_hold_steps"]), gripper="close"),
+        ]
+
+    carrier = CarrierPick("source", riders=("food",))
+    sponge = PickAndCarry("sponge")
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """≥ ``min_grasps`` reachable carrier grasps clear of the food, ≥ 1 reachable sponge grasp."""
+        sponge = self.sponge.reachable_grasps(ctx)
+        if not sponge:
+            raise Infeasible("reach.sponge", f"none of the {len(ctx.grasps.get('sponge', ()))} valid grasps "
+                                             "of the sponge is reachable")
+        carrier = self.carrier.reachable_grasps(ctx)
+        if len(carrier) < max(min_grasps, 1):
+            raise Infeasible("reach.grasps", f"{len(carrier)} of the {len(ctx.grasps.get('source', ()))} "
+                                             f"valid grasps of source are reachable and clear of the food "
+                                             f"(needs {min_grasps})")
+        return {"grasps": tuple(g.id for g in carrier), "sponge_grasps": tuple(g.id for g in sponge)}
+
+    # -- runtime targets -----------------------------------------------------------------------------------
+    def resolve(self, name: str, ctx: Context) -> Pose:
+        if name.startswith("sponge_"):
+            return self._sponge_target(name, ctx)
+        if name.startswith("wipe_"):
+            return self._wipe_target(name, ctx)
+        if name.startswith("pour_"):
+            return self._pour_target(name, ctx)
+        return self.carrier.resolve(name, ctx) or super().resolve(name, ctx)
+
+    def _sponge_grasp(self, ctx: Context) -> Pose:
+        """World TCP pose of this attempt's sponge grasp (round-robin over the gate's reachable ones), from
+        the sponge's pose when first asked (its start pose: it is put back there)."""
+        if "sponge_grasp" not in ctx.memo:
+            ids = ctx.task.gate.get("sponge_grasps")
+            grasps = {g.id: g for g in ctx.grasps.get("sponge", ())}
+            usable = [grasps[i] for i in ids if i in grasps] if ids is not None else list(
+                self.sponge.reachable_grasps(ctx))
+            if not usable:
+                raise AttemptFailed("no_grasp", "no reachable valid grasp of the sponge")
+            grasp = usable[ctx.variation.pick(len(usable))]
+            local = grasp.matrix()
+            local[2, 3] += ctx.variation["grasp_height"]
+            ctx.memo["sponge_grasp"] = Pose.from_matrix(ctx.object_pose("sponge").matrix() @ local)
+        return ctx.memo["sponge_grasp"]
+
+    def _sponge_target(self, name: str, ctx: Context) -> Pose:
+        grasp = self._sponge_grasp(ctx)
+        approach = grasp.rotation()[:, 2]
+        tcp = ctx.commanded_tcp()
+        if name == "sponge_pre":
+            return Pose(grasp.pos - approach * ctx.variation["grasp_standoff"], grasp.quat)
+        if name == "sponge_grasp":
+            return grasp
+        if name == "sponge_lift":
+            return Pose(tcp.pos + UP * self._clearance_lift(ctx, "sponge"), tcp.quat)
+        if name in ("sponge_back", "sponge_place"):
+            place = grasp.pos + UP * float(ctx.param("place_drop"))
+            if name == "sponge_back":
+                place = np.array([place[0], place[1], max(tcp.pos[2], place[2] + 0.03)])
+            return Pose(place, tcp.quat)
+        if name == "sponge_retreat":
+            return Pose(tcp.pos - tcp.rotation()[:, 2] * ctx.variation["grasp_standoff"], tcp.quat)
+        return super().resolve(name, ctx)
+
+    def _clearance_lift(self, ctx: Context, held: str) -> float:
+        """How far up (m) the TCP goes so that the held object's lowest point is ``sponge_lift`` above the
+        tallest other rigid object (at least ``lift_height``)."""
+        scene = ctx.scene
+        tops = [scene.object_pose(n)[0][2] + m.size[2] for n, m in scene.objects.items()
+                if n != held and m.particles is None]
+        low = ctx.object_pose(held).pos[2]
+        return max(float(ctx.variation["lift_height"]), max(tops) + float(ctx.param("sponge_lift")) - low)
+
+    # -- wiping --------------------------------------------------------------------------------------------
+    def _patch(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The dust patch now: centre (world, on the tray's floor), the tray's rotation, and the half
+        extents the sponge's centre sweeps along the tray's x and y (clamped inside the walls)."""
+        dest, dust = ctx.task.object("dest"), ctx.task.object("dust")
+        tray = ctx.object_pose("dest")
+        rot = tray.rotation()
+        c, si = math.cos(dest.yaw), math.sin(dest.yaw)
+        offset = np.asarray(dust.pos) - np.asarray(dest.pos)
+        local = np.array([c * offset[0] + si * offset[1], -si * offset[0] + c * offset[1], offset[2]])
+        geo = ctx.scene.object_model("dust").geometry
+        cavity = ctx.scene.object_model("dest").cavity
+        assert cavity is not None
+        sx, sy = self._sponge_extent(ctx, rot)
+        room_x = cavity.half_x - sx - float(ctx.param("wall_clearance"))
+        room_y = cavity.half_y - sy - float(ctx.param("wall_clearance"))
+        if room_x < 0 or room_y < 0:
+            raise AttemptFailed("target_fail", "the sponge does not fit between the tray's walls")
+        local[0], local[1] = np.clip(local[0], -room_x, room_x), np.clip(local[1], -room_y, room_y)
+        half_x = min(float(geo["half_x"]), room_x - abs(local[0]))
+        half_y = min(float(geo["half_y"]), room_y - abs(local[1]))
+        local[2] = cavity.floor_z
+        return tray.pos + rot @ local, rot, max(half_x, 0.0), max(half_y, 0.0)
+
+    @staticmethod
+    def _sponge_extent(ctx: Context, tray_rot: np.ndarray) -> tuple[float, float]:
+        """Half extents of the sponge's footprint along the tray's x and y axes (its current yaw)."""
+        size = np.asarray(ctx.scene.object_model("sponge").size[:2]) / 2
+        rot = ctx.object_pose("sponge").rotation()
+        axes = tray_rot[:, :2].T @ rot[:, :2]  # tray x/y components of the sponge's x/y axes
+        return float(np.abs(axes[0]) @ size), float(np.abs(axes[1]) @ size)
+
+    def _rows(self, ctx: Context) -> np.ndarray:
+        """Offsets (m, along the tray's y) of the stroke rows covering the patch."""
+        width = 2 * float(min(ctx.scene.object_model("sponge").size[:2])) / 2
+        span = 2 * float(ctx.scene.object_model("dust").geometry["half_y"])
+        n = max(1, math.ceil(span / (float(ctx.param("row_overlap")) * width)))
+        half = max(0.0, span / 2 - width / 2 * float(ctx.param("row_overlap")))
+        return np.linspace(-half, half, n) if n > 1 else np.zeros(1)
+
+    def _wipe_target(self, name: str, ctx: Context) -> Pose:
+        tcp = ctx.commanded_tcp()
+        if name == "wipe_above":
+            centre, rot, hx, hy = self._patch(ctx)
+            rows = np.clip(self._rows(ctx), -hy, hy)
+            start = centre + rot[:, 0] * (-hx + ctx.variation["wipe_press_dx"]) + rot[:, 1] * rows[0]
+            offset = tcp.pos - ctx.object_pose("sponge").pos  # TCP minus the sponge's bottom centre
+            ctx.memo["wipe_offset"] = offset
+            return Pose(start + offset + UP * float(ctx.param("wipe_hover")), tcp.quat)
+        if name == "wipe_up":
+            self._check_clean(ctx)
+            return Pose(tcp.pos + UP * float(ctx.param("wipe_hover")) * 2, tcp.quat)
+        i = int(name.split("_")[1])
+        if i == 0:
+            centre, rot, hx, hy = self._patch(ctx)
+            ctx.memo["wipe_patch"] = (centre, rot, hx, np.clip(self._rows(ctx), -hy, hy))
+        centre, rot, hx, rows = ctx.memo["wipe_patch"]
+        row = rows[(i + 1) // 2]
+        x = hx if (i // 2) % 2 == 0 else -hx  # strokes 0, 1 end at +x; 2, 3 at -x; …
+        point = centre + rot[:, 0] * x + rot[:, 1] * row + ctx.memo["wipe_offset"]
+        return Pose(np.array([point[0], point[1], tcp.pos[2]]), tcp.quat)
+
+    @staticmethod
+    def _check_clean(ctx: Context) -> None:
+        left = ctx.scene.dust.remaining_fraction(ctx.scene.data, "dust")
+        if left > 0.0:
+            raise AttemptFailed("target_fail", f"wipe incomplete: {left:.0%} of the dust is left after the "
+                                "strokes")
+
+    # -- pouring -------------------------------------------------------------------------------------------
+    def _pour_target(self, name: str, ctx: Context) -> Pose:
+        if "pour" not in ctx.memo:
+            ctx.memo["pour"] = self._pour_plan(ctx)
+        pos, quat0, axis, angle = ctx.memo["pour"]
+        if name == "pour_start":
+            return Pose(pos, quat0)
+        k = int(name.split("_")[1]) + 1
+        turn = _turn(axis, angle * k / int(ctx.param("pour_steps")))
+        return Pose.from_pos_mat(pos, turn @ Pose(pos, quat0).rotation())
+
+    def _pour_plan(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The pour stance: TCP position, level orientation (the current one), tilt axis and angle, such
+        that at the final tilt the bowl's mouth is over the tray's cavity centre and every corner of its
+        bounding box stays ``pour_clearance`` above the tray's rim at each tilt step."""
+        tcp, bowl = ctx.commanded_tcp(), ctx.object_pose("source")
+        in_tcp = tcp.inverse() @ bowl
+        radial = tcp.pos - bowl.pos
+        radial[2] = 0.0
+        if np.linalg.norm(radial) < 1e-4:
+            raise AttemptFailed("target_fail", "the carrier is held at its axis: no side to pour over")
+        radial /= np.linalg.norm(radial)
+        axis = np.cross(radial, UP)  # turning about it takes the far side (-radial) down
+        angle = math.radians(ctx.variation["pour_angle_deg"])
+        model = ctx.scene.object_model("source")
+        lo = np.array([-model.size[0] / 2, -model.size[1] / 2, 0.0])
+        hi = np.array([model.size[0] / 2, model.size[1] / 2, model.size[2]])
+        corners = box_corners(lo, hi)
+        mouth = np.array([0.0, 0.0, model.size[2]])
+        tray, cavity = ctx.object_pose("dest"), ctx.scene.object_model("dest").cavity
+        assert cavity is not None
+        target = tray.pos + tray.rotation() @ np.array([0.0, 0.0, cavity.rim_z])
+        n = int(ctx.param("pour_steps"))
+        rot0 = tcp.rotation()
+        low = []
+        for k in range(n + 1):
+            r = _turn(axis, angle * k / n) @ rot0
+            r_obj = r @ in_tcp.rotation()
+            low.append(float(np.min((r @ in_tcp.pos + corners @ r_obj.T)[:, 2])))
+        r = _turn(axis, angle) @ rot0
+        mouth_off = r @ in_tcp.pos + (r @ in_tcp.rotation()) @ mouth
+        z = target[2] + float(ctx.param("pour_clearance")) - min(low)
+        return np.array([target[0] - mouth_off[0], target[1] - mouth_off[1], z]), tcp.quat, axis, angle
