@@ -40,7 +40,7 @@ from mgdata.engine.init_gate import Infeasible
 from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
 from mgdata.grasps.db import Grasp
-from mgdata.motion import Pose
+from mgdata.motion import MotionFailure, Pose
 from mgdata.sim.geometry import box_corners
 from mgdata.sim.robot import ROOT_BODY
 
@@ -103,8 +103,12 @@ class DustySkeleton(FamilySkeleton):
                 Param("max_press_force", float, "N the press never exceeds", 0.1, 100.0),
                 Param("stroke_force", float, "N the strokes press with at least", 0.1, 50.0),
                 Param("max_stroke_force", float, "N the strokes never exceed", 0.1, 100.0),
+                Param("touch_up_strokes", int, "strokes after the zig-zag, each over the remaining speck "
+                      "nearest the sponge (a short one towards the patch centre if none is left)", 0, 20),
                 Param("row_overlap", float, "spacing of the stroke rows, fraction of the sponge's width",
                       0.1, 1.0),
+                Param("touch_up_overshoot", float, "m a touch-up stroke carries the sponge's centre past "
+                      "its speck", 0.0, 0.1),
                 Param("wall_clearance", float, "m the sponge keeps inside the tray's walls", 0.0, 0.1),
                 Param("wipe_speed", float, "fraction of the planned speed while wiping", 0.01, 1.0),
                 Param("place_drop", float, "m above its start the sponge is released", 0.0, 0.05),
@@ -148,7 +152,7 @@ class DustySkeleton(FamilySkeleton):
             *[s.guarded(f"wipe_{i}", f"wipe_{i}", until=s.force("dest", float(p["stroke_force"])),
                         max_force=float(p["max_stroke_force"]), press=(0.0, 0.0, -1.0),
                         speed=float(p["wipe_speed"]), gripper="close", attached="sponge", allow=on_tray)
-              for i in range(strokes)],
+              for i in range(strokes + int(p["touch_up_strokes"]))],
             s.linear("wipe_up", "wipe_up", allow=on_tray, **held),  # type: ignore[arg-type]
             s.free("sponge_back", "sponge_back", **held),  # type: ignore[arg-type]
             s.linear("sponge_place", "sponge_place", allow=(("sponge", "table"),), **held),  # type: ignore[arg-type]
@@ -232,7 +236,8 @@ class DustySkeleton(FamilySkeleton):
         return max(float(ctx.variation["lift_height"]), max(tops) + float(ctx.param("sponge_lift")) - low)
 
     # -- wiping --------------------------------------------------------------------------------------------
-    def _patch(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, float, float]:
+    def _patch(self, ctx: Context, sponge_rot: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, float, float]:
         """The dust patch now: centre (world, on the tray's floor), the tray's rotation, and the half
         extents the sponge's centre sweeps along the tray's x and y (clamped inside the walls)."""
         dest, dust = ctx.task.object("dest"), ctx.task.object("dust")
@@ -244,7 +249,7 @@ class DustySkeleton(FamilySkeleton):
         geo = ctx.scene.object_model("dust").geometry
         cavity = ctx.scene.object_model("dest").cavity
         assert cavity is not None
-        sx, sy = self._sponge_extent(ctx, rot)
+        sx, sy = self._sponge_extent(ctx, rot, sponge_rot)
         room_x = cavity.half_x - sx - float(ctx.param("wall_clearance"))
         room_y = cavity.half_y - sy - float(ctx.param("wall_clearance"))
         if room_x < 0 or room_y < 0:
@@ -256,10 +261,12 @@ class DustySkeleton(FamilySkeleton):
         return tray.pos + rot @ local, rot, max(half_x, 0.0), max(half_y, 0.0)
 
     @staticmethod
-    def _sponge_extent(ctx: Context, tray_rot: np.ndarray) -> tuple[float, float]:
-        """Half extents of the sponge's footprint along the tray's x and y axes (its current yaw)."""
+    def _sponge_extent(ctx: Context, tray_rot: np.ndarray,
+                       sponge_rot: np.ndarray | None = None) -> tuple[float, float]:
+        """Half extents of the sponge's footprint along the tray's x and y axes (at its current rotation, or
+        ``sponge_rot``)."""
         size = np.asarray(ctx.scene.object_model("sponge").size[:2]) / 2
-        rot = ctx.object_pose("sponge").rotation()
+        rot = ctx.object_pose("sponge").rotation() if sponge_rot is None else sponge_rot
         axes = tray_rot[:, :2].T @ rot[:, :2]  # tray x/y components of the sponge's x/y axes
         return float(np.abs(axes[0]) @ size), float(np.abs(axes[1]) @ size)
 
@@ -274,23 +281,66 @@ class DustySkeleton(FamilySkeleton):
     def _wipe_target(self, name: str, ctx: Context) -> Pose:
         tcp = ctx.commanded_tcp()
         if name == "wipe_above":
-            centre, rot, hx, hy = self._patch(ctx)
-            rows = np.clip(self._rows(ctx), -hy, hy)
-            start = centre + rot[:, 0] * (-hx + ctx.variation["wipe_press_dx"]) + rot[:, 1] * rows[0]
-            offset = tcp.pos - ctx.object_pose("sponge").pos  # TCP minus the sponge's bottom centre
-            ctx.memo["wipe_offset"] = offset
-            return Pose(start + offset + UP * float(ctx.param("wipe_hover")), tcp.quat)
+            return self._wipe_start(ctx)
         if name == "wipe_up":
             self._check_clean(ctx)
             return Pose(tcp.pos + UP * float(ctx.param("wipe_hover")) * 2, tcp.quat)
         i = int(name.split("_")[1])
-        if i == 0:
-            centre, rot, hx, hy = self._patch(ctx)
-            ctx.memo["wipe_patch"] = (centre, rot, hx, np.clip(self._rows(ctx), -hy, hy))
-        centre, rot, hx, rows = ctx.memo["wipe_patch"]
+        centre, rot, hx, hy = self._patch(ctx)  # where the tray is now
+        rows = np.clip(self._rows(ctx), -hy, hy)
+        if i >= 2 * len(rows) - 1:
+            return self._touch_up(ctx, centre, rot)
         row = rows[(i + 1) // 2]
         x = hx if (i // 2) % 2 == 0 else -hx  # strokes 0, 1 end at +x; 2, 3 at -x; …
         point = centre + rot[:, 0] * x + rot[:, 1] * row + ctx.memo["wipe_offset"]
+        return Pose(np.array([point[0], point[1], tcp.pos[2]]), tcp.quat)
+
+    def _wipe_start(self, ctx: Context) -> Pose:
+        """Over the patch's first corner, ``wipe_hover`` up: the hand turned about the vertical by the first
+        of 0°, 180°, ±90° that the arm reaches (IK from the current command)."""
+        tcp, sponge = ctx.commanded_tcp(), ctx.object_pose("sponge")
+        rng = ctx.variation.rng("wipe_turn")
+        first = None
+        for yaw in (0.0, math.pi, math.pi / 2, -math.pi / 2):
+            turn = _turn(UP, yaw)
+            centre, rot, hx, hy = self._patch(ctx, turn @ sponge.rotation())
+            rows = np.clip(self._rows(ctx), -hy, hy)
+            start = centre + rot[:, 0] * (-hx + ctx.variation["wipe_press_dx"]) + rot[:, 1] * rows[0]
+            offset = turn @ (tcp.pos - sponge.pos)  # TCP minus the sponge's bottom centre, turned
+            hover = UP * float(ctx.param("wipe_hover"))
+            pose = Pose.from_pos_mat(start + offset + hover, turn @ tcp.rotation())
+            first = first or (pose, offset)
+            try:
+                ctx.planner.ik(pose, ctx.q_cmd, rng)
+            except MotionFailure:
+                continue
+            ctx.memo["wipe_offset"] = offset
+            return pose
+        assert first is not None
+        ctx.memo["wipe_offset"] = first[1]
+        return first[0]
+
+    def _touch_up(self, ctx: Context, centre: np.ndarray, rot: np.ndarray) -> Pose:
+        """A stroke that puts the sponge's centre ``touch_up_overshoot`` past the remaining speck nearest to
+        it (along the line to it), kept inside the walls; back towards the patch centre if none is left."""
+        tcp, top = ctx.commanded_tcp(), ctx.object_pose("sponge").pos  # the sponge's bottom centre
+        ids = ctx.scene.dust.mocap_ids["dust"]
+        specks = ctx.scene.data.mocap_pos[ids]
+        specks = specks[specks[:, 2] > -1.0]
+        aim = centre if not len(specks) else specks[np.argmin(np.linalg.norm(specks - top, axis=1))]
+        way = (aim - top) @ rot[:, :2]  # in the tray's x/y
+        dist = float(np.linalg.norm(way))
+        way = way / dist if dist > 1e-6 else np.array([1.0, 0.0])
+        local = (top - centre) @ rot[:, :2] + way * (dist + float(ctx.param("touch_up_overshoot")))
+        sx, sy = self._sponge_extent(ctx, rot)
+        cavity = ctx.scene.object_model("dest").cavity
+        assert cavity is not None
+        tray = ctx.object_pose("dest")
+        origin = (centre - tray.pos) @ rot[:, :2]  # the patch centre in the tray's x/y
+        wall = float(ctx.param("wall_clearance"))
+        room = np.array([cavity.half_x - sx - wall, cavity.half_y - sy - wall])
+        local = np.clip(origin + local, -room, room) - origin
+        point = centre + rot[:, :2] @ local + ctx.memo["wipe_offset"]
         return Pose(np.array([point[0], point[1], tcp.pos[2]]), tcp.quat)
 
     @staticmethod

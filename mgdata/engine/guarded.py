@@ -34,12 +34,13 @@ the attempt's ``plan/<segment name>`` stream).
 
 **Sliding** (``press=`` a world direction, e.g. down; wiping): the TCP travels ``max_distance`` along the
 line (towards a target: its part across ``press``) while, along ``press``, the commanded point is offset so
-that the pair's normal force tracks the goal between the ``force`` threshold and ``max_force`` (the same
-lead correction ``(goal - F) / k`` with the stiffness along ``press``; above ``max_force`` the offset falls
-back to the measured TCP). The move starts in contact (after a guarded press) and must stay in it:
-:data:`LOST_STEPS` consecutive steps without contact end it as ``guarded_no_contact``; reaching the
-distance limit is the success. Peaks above ``max_force`` can still occur while the contact is dynamic (a
-sponge dragged at the start of a stroke): the bound is what the regulation aims under, not a clamp.
+that the pair's normal force tracks the goal between the ``force`` threshold and ``max_force`` (the offset
+is corrected by ``(goal - F) / k`` each step, with the stiffness along ``press``, easing off as well as
+pressing; above ``max_force`` it falls back to at most the measured TCP). The move starts in contact (after
+a guarded press) and must stay in it: :data:`LOST_STEPS` consecutive steps without contact end it as
+``guarded_no_contact``; reaching the distance limit is the success. Peaks above ``max_force`` can still
+occur while the contact is dynamic (a sponge dragged at the start of a stroke): the bound is what the
+regulation aims under, not a clamp.
 
 Example::
 
@@ -325,7 +326,7 @@ class GuardedMove:
                 break
             q_line = self._line_q(s_cmd)
             k = self.servo.stiffness(q_line, press)
-            d_cmd = d_act + max(0.0, d_cmd - d_act + (goal - newtons) / k)
+            d_cmd = d_cmd + (goal - newtons) / k  # both ways: a slide eases off as well as presses
             if newtons > fmax:
                 d_cmd = min(d_cmd, d_act)
             vel = min(vmax, vel + lc.accel * dt)
