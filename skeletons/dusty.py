@@ -40,9 +40,10 @@ from mgdata.engine.init_gate import Infeasible
 from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
 from mgdata.grasps.db import Grasp
-from mgdata.motion import MotionFailure, Pose
+from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.sim.assets import ObjectModel
 from mgdata.sim.geometry import box_corners
-from mgdata.sim.robot import ROOT_BODY
+from mgdata.sim.robot import FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
 
 _PICK_PARAMS = ("open_steps", "grasp_settle_steps", "close_steps", "lift_margin", "carry_speed",
                 "grasp_margin", "grasp_clearance", "reach_standoff")
@@ -52,8 +53,8 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class CarrierPick(PickAndCarry):
-    """Pick-and-carry of the source carrier whose grasps keep away from the food riding in it: the TCP at
-    least the food's half width plus ``food_clearance`` from the food's centre, horizontally."""
+    """Pick-and-carry of the source carrier by grasps that keep the open hand's fingertips away from the
+    food riding in it (:meth:`clear_of_food`) and lie on its far side (:meth:`far_side`)."""
 
     food: str = "food"
 
@@ -72,11 +73,32 @@ class CarrierPick(PickAndCarry):
         return bool(cos >= math.cos(math.radians(float(ctx.param("pour_side_deg")))))
 
     def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
+        """Do both fingertips of the open hand at the grasp stay ``food_clearance`` clear of the food's
+        bounding box (horizontally: of its enclosing circle; or above its top)?"""
         tcp = ctx.object_pose(self.obj).matrix() @ grasp.matrix()
-        food = ctx.scene.object_model(self.food)
-        centre = ctx.object_pose(self.food).pos
-        need = float(food.geometry.get("width", max(food.size[:2]))) / 2 + float(ctx.param("food_clearance"))
-        return bool(np.hypot(*(tcp[:2, 3] - centre[:2])) >= need)
+        food = ctx.object_pose(self.food)
+        size = np.asarray(ctx.scene.object_model(self.food).size)
+        clear = float(ctx.param("food_clearance"))
+        reach = float(np.hypot(size[0], size[1])) / 2 + clear
+        top = food.pos[2] + size[2] + clear
+        for side in (1.0, -1.0):
+            tip = tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH + side * tcp[:3, 1] * GRIPPER_MAX_OPENING / 2
+            if np.hypot(*(tip[:2] - food.pos[:2])) < reach and tip[2] < top:
+                return False
+        return True
+
+
+def _outline(model: ObjectModel) -> np.ndarray:
+    """Points (n, 3, local frame) bounding a carrier: its foot and rim circles (16 points each) if it is
+    round, else its bounding box's corners."""
+    geo = model.geometry
+    if "rim_radius" in geo and "bottom_radius" in geo:
+        phi = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+        ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(16)])
+        return np.concatenate([ring * float(geo["bottom_radius"]),
+                               ring * float(geo["rim_radius"]) + [0.0, 0.0, float(geo["height"])]])
+    lo = np.array([-model.size[0] / 2, -model.size[1] / 2, 0.0])
+    return box_corners(lo, np.array([model.size[0] / 2, model.size[1] / 2, model.size[2]]))
 
 
 def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -93,7 +115,8 @@ class DustySkeleton(FamilySkeleton):
     name = "dusty"
     recipe_keys = RecipeKeys(
         params=(*(p for p in PICK_AND_CARRY_KEYS.params if p.name in _PICK_PARAMS),
-                Param("food_clearance", float, "m a carrier grasp keeps from the food's edge", 0.0, 0.2),
+                Param("food_clearance", float, "m the open fingertips of a carrier grasp keep from the food",
+                      0.0, 0.2),
                 Param("pour_side_deg", float, "a carrier grasp's radius is at most this far from the "
                       "direction away from the robot", 0.0, 180.0),
                 Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved",
@@ -116,6 +139,8 @@ class DustySkeleton(FamilySkeleton):
                 Param("pour_speed", float, "fraction of the planned speed while tilting", 0.01, 1.0),
                 Param("pour_line_deg", float, "tilts up to this are straight turns about the TCP; beyond, "
                       "joint-space moves (the wrist passes a singularity near 90°)", 0.0, 180.0),
+                Param("pour_aim_offsets", tuple, "m (x, y pairs in the tray's frame) of the other points "
+                      "the mouth may pour over if the centre's stance is out of reach", -0.2, 0.2),
                 Param("pour_clearance", float, "m the tilted bowl's lowest corner keeps above the rim",
                       0.0, 0.3),
                 Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
@@ -362,34 +387,48 @@ class DustySkeleton(FamilySkeleton):
         return Pose.from_pos_mat(pos, turn @ Pose(pos, quat0).rotation())
 
     def _pour_plan(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """The pour stance: TCP position, level orientation (the current one), tilt axis and angle, such
-        that at the final tilt the bowl's mouth is over the tray's cavity centre and every corner of its
-        bounding box stays ``pour_clearance`` above the tray's rim at each tilt step."""
+        """The pour stance: TCP position, level orientation (the current one), tilt axis and angle. The
+        stance puts the bowl's mouth, at the final tilt, over a point of the tray's cavity (its centre first,
+        then ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`)
+        ``pour_clearance`` above the tray's rim at each tilt step; the first stance whose every tilt step the
+        arm reaches collision-free (IK, holding the bowl) is taken, at the drawn angle or 10° less."""
         tcp, bowl = ctx.commanded_tcp(), ctx.object_pose("source")
         in_tcp = tcp.inverse() @ bowl
         radial = tcp.pos - bowl.pos
         radial[2] = 0.0
         if np.linalg.norm(radial) < 1e-4:
             raise AttemptFailed("target_fail", "the carrier is held at its axis: no side to pour over")
-        radial /= np.linalg.norm(radial)
-        axis = np.cross(radial, UP)  # turning about it takes the far side (-radial) down
-        angle = math.radians(ctx.variation["pour_angle_deg"])
+        axis = np.cross(radial / np.linalg.norm(radial), UP)  # turning about it takes the far side down
         model = ctx.scene.object_model("source")
-        lo = np.array([-model.size[0] / 2, -model.size[1] / 2, 0.0])
-        hi = np.array([model.size[0] / 2, model.size[1] / 2, model.size[2]])
-        corners = box_corners(lo, hi)
-        mouth = np.array([0.0, 0.0, model.size[2]])
+        corners, mouth = _outline(model), np.array([0.0, 0.0, model.size[2]])
         tray, cavity = ctx.object_pose("dest"), ctx.scene.object_model("dest").cavity
         assert cavity is not None
-        target = tray.pos + tray.rotation() @ np.array([0.0, 0.0, cavity.rim_z])
-        n = int(ctx.param("pour_steps"))
-        rot0 = tcp.rotation()
-        low = []
-        for k in range(n + 1):
-            r = _turn(axis, angle * k / n) @ rot0
-            r_obj = r @ in_tcp.rotation()
-            low.append(float(np.min((r @ in_tcp.pos + corners @ r_obj.T)[:, 2])))
-        r = _turn(axis, angle) @ rot0
-        mouth_off = r @ in_tcp.pos + (r @ in_tcp.rotation()) @ mouth
-        z = target[2] + float(ctx.param("pour_clearance")) - min(low)
-        return np.array([target[0] - mouth_off[0], target[1] - mouth_off[1], z]), tcp.quat, axis, angle
+        n, rot0 = int(ctx.param("pour_steps")), tcp.rotation()
+        held = Attachment("source", in_tcp.matrix(), riders=tuple(ctx.scene.loose_bodies("food")))
+        allowed = AllowedContacts(tuple((ROOT_BODY, b) for b in ctx.scene.loose_bodies("food")))
+        rng = ctx.variation.rng("pour_stance")
+        offsets = [(0.0, 0.0), *((float(a), float(b)) for a, b in
+                                 np.asarray(ctx.param("pour_aim_offsets")).reshape(-1, 2))]
+        first = None
+        for angle in (math.radians(ctx.variation["pour_angle_deg"]),
+                      math.radians(ctx.variation["pour_angle_deg"] - 10.0)):
+            turns = [_turn(axis, angle * k / n) @ rot0 for k in range(n + 1)]
+            low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
+                      for r in turns)
+            mouth_off = turns[-1] @ in_tcp.pos + (turns[-1] @ in_tcp.rotation()) @ mouth
+            for dx, dy in offsets:
+                aim = tray.pos + tray.rotation() @ np.array([dx, dy, cavity.rim_z])
+                pos = np.array([aim[0] - mouth_off[0], aim[1] - mouth_off[1],
+                                aim[2] + float(ctx.param("pour_clearance")) - low])
+                plan = (pos, tcp.quat, axis, angle)
+                first = first or plan
+                q = ctx.q_cmd
+                try:
+                    for r in turns:
+                        q = ctx.planner.ik(Pose.from_pos_mat(pos, r), q, rng, collision_free=True,
+                                           allowed=allowed, attached=held)
+                except MotionFailure:
+                    continue
+                return plan
+        assert first is not None
+        return first
