@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -88,6 +88,21 @@ class CarrierPick(PickAndCarry):
         return True
 
 
+@dataclass(frozen=True)
+class SpongePick(PickAndCarry):
+    """The sponge's DB grasps raised by ``sponge_grasp_raise`` along its vertical axis (the DB's top grasp
+    puts a thin sponge's fingertips within the arm's clearance of the table)."""
+
+    def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
+        raised = tuple(replace(g, pos=(g.pos[0], g.pos[1], g.pos[2] + self.raise_by(ctx)))
+                       for g in ctx.grasps.get(self.obj, ()))
+        return super().reachable_grasps(replace(ctx, grasps={**ctx.grasps, self.obj: raised}))
+
+    @staticmethod
+    def raise_by(ctx: Context) -> float:
+        return float(ctx.param("sponge_grasp_raise"))
+
+
 def _outline(model: ObjectModel) -> np.ndarray:
     """Points (n, 3, local frame) bounding a carrier: its foot and rim circles (16 points each) if it is
     round, else its bounding box's corners."""
@@ -119,6 +134,8 @@ class DustySkeleton(FamilySkeleton):
                       0.0, 0.2),
                 Param("pour_side_deg", float, "a carrier grasp's radius is at most this far from the "
                       "direction away from the robot", 0.0, 180.0),
+                Param("sponge_grasp_raise", float, "m the sponge's DB grasp is raised along its vertical",
+                      0.0, 0.05),
                 Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved",
                       0.0, 0.2),
                 Param("wipe_hover", float, "m above the tray's floor the press starts", 0.0, 0.1),
@@ -191,7 +208,7 @@ class DustySkeleton(FamilySkeleton):
         ]
 
     carrier = CarrierPick("source", riders=("food",))
-    sponge = PickAndCarry("sponge")
+    sponge = SpongePick("sponge")
 
     def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
         """≥ ``min_grasps`` reachable carrier grasps clear of the food, ≥ 1 reachable sponge grasp."""
@@ -228,7 +245,7 @@ class DustySkeleton(FamilySkeleton):
                 raise AttemptFailed("no_grasp", "no reachable valid grasp of the sponge")
             grasp = usable[ctx.variation.pick(len(usable))]
             local = grasp.matrix()
-            local[2, 3] += ctx.variation["grasp_height"]
+            local[2, 3] += ctx.variation["grasp_height"] + SpongePick.raise_by(ctx)
             ctx.memo["sponge_grasp"] = Pose.from_matrix(ctx.object_pose("sponge").matrix() @ local)
         return ctx.memo["sponge_grasp"]
 
