@@ -408,7 +408,8 @@ class DustySkeleton(FamilySkeleton):
         stance puts the bowl's mouth, at the final tilt, over a point of the tray's cavity (its centre first,
         then ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`)
         ``pour_clearance`` above the tray's rim at each tilt step; the first stance whose every tilt step the
-        arm reaches collision-free (IK, holding the bowl) is taken, at the drawn angle or 10° less."""
+        arm reaches collision-free (IK, holding the bowl) is taken, at the drawn angle or 10° or 20° less;
+        none ends the attempt (``target_fail``)."""
         tcp, bowl = ctx.commanded_tcp(), ctx.object_pose("source")
         in_tcp = tcp.inverse() @ bowl
         radial = tcp.pos - bowl.pos
@@ -426,9 +427,7 @@ class DustySkeleton(FamilySkeleton):
         rng = ctx.variation.rng("pour_stance")
         offsets = [(0.0, 0.0), *((float(a), float(b)) for a, b in
                                  np.asarray(ctx.param("pour_aim_offsets")).reshape(-1, 2))]
-        first = None
-        for angle in (math.radians(ctx.variation["pour_angle_deg"]),
-                      math.radians(ctx.variation["pour_angle_deg"] - 10.0)):
+        for angle in (math.radians(ctx.variation["pour_angle_deg"] - d) for d in (0.0, 10.0, 20.0)):
             turns = [_turn(axis, angle * k / n) @ rot0 for k in range(n + 1)]
             low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
                       for r in turns)
@@ -438,7 +437,6 @@ class DustySkeleton(FamilySkeleton):
                 pos = np.array([aim[0] - mouth_off[0], aim[1] - mouth_off[1],
                                 aim[2] + float(ctx.param("pour_clearance")) - low])
                 plan = (pos, tcp.quat, axis, angle)
-                first = first or plan
                 q = ctx.q_cmd
                 try:
                     for r in turns:
@@ -447,5 +445,6 @@ class DustySkeleton(FamilySkeleton):
                 except MotionFailure:
                     continue
                 return plan
-        assert first is not None
-        return first
+        drawn = ctx.variation["pour_angle_deg"]
+        raise AttemptFailed("target_fail", f"no pour stance over the tray is reachable holding the bowl "
+                            f"({len(offsets)} aim points; {drawn:.0f}°, 10° and 20° less)")
