@@ -169,8 +169,11 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def after_control_step(self) -> None:
-        """Per-control-step bookkeeping outside MuJoCo's dynamics (dust wiping)."""
-        self.dust.update(self.data)
+        """Per-control-step bookkeeping outside MuJoCo's dynamics: dust follows its hosts and is wiped, from
+        the positions and contacts of the state just reached (``mj_forward`` first; only with dust)."""
+        if self.dust.mocap_ids:
+            mujoco.mj_forward(self.model, self.data)
+            self.dust.update(self.data)
 
     # -- lookups -----------------------------------------------------------------------------------------
     def _known(self, name: str) -> None:
