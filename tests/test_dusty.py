@@ -5,7 +5,9 @@ state after every control step (``data.contact``, body poses, the dust's mocap p
 the predicates:
 
 * the skeleton's wipe phase: dust specks disappear only at steps where the sponge touches the tray, every
-  remaining speck keeps its place in the tray's frame, and none is left;
+  remaining speck keeps its place in the tray's frame, and none is left; from the press's first touch to the
+  last stroke the sponge stays on the tray (> 95 % of the steps) with a median normal force (raw
+  ``mj_contactForce``) within the strokes' bound and a peak within the press's;
 * a planted unsafe carrier grasp, the fingers closed on the food instead of the bowl's rim: the attempt ends
   unsafe (``food_not_touched``) at exactly the first step where a robot geom touches the food;
 * pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
@@ -14,6 +16,7 @@ the predicates:
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 import rawdata
@@ -78,6 +81,7 @@ class _Probe(JointController):
         self.left: list[np.ndarray] = []
         self.local: list[np.ndarray] = []
         self.food_in_tray: list[bool] = []
+        self.press: list[float] = []
 
     def _touching(self, a: set[int], b: set[int]) -> bool:
         d = self.scene.data
@@ -89,6 +93,13 @@ class _Probe(JointController):
         m, d = self.scene.model, self.scene.data
         self.touch_food.append(self._touching(self.robot, self.food))
         self.sponge_on_tray.append(self._touching(self.sponge, self.tray))
+        force, total = np.zeros(6), 0.0
+        for i, c in enumerate(d.contact[:d.ncon]):
+            pair = {c.geom1, c.geom2}
+            if pair & self.sponge and pair & self.tray:
+                mujoco.mj_contactForce(m, d, i, force)
+                total += float(force[0])
+        self.press.append(total)
         tray = m.body("dest").id
         rot = d.xmat[tray].reshape(3, 3)
         self.left.append(d.mocap_pos[self.specks, 2] > m.geom("floor").pos[2])
@@ -129,6 +140,12 @@ def test_the_wipe_removes_dust_only_where_the_sponge_touches_the_tray(recipe: Re
     assert left[0].all() and not left[-1].any(), "every speck there at the start, none after the wipe"
     gone = np.flatnonzero(np.any(left[:-1] & ~left[1:], axis=1)) + 1  # steps where some speck vanished
     assert len(gone) > 0 and all(probe.sponge_on_tray[t] for t in gone), "wiped only while touching"
+    touching = np.flatnonzero(probe.sponge_on_tray)
+    span = slice(touching[0], touching[-1] + 1)  # from the press's first touch to the end of the strokes
+    assert np.mean(np.array(probe.sponge_on_tray)[span]) > 0.95, "the strokes keep the sponge on the tray"
+    press = np.array(probe.press)[span]
+    stroke = float(recipe.params["max_stroke_force"])
+    assert np.median(press) <= stroke and np.max(press) <= float(recipe.params["max_press_force"])
     local = np.array(probe.local)
     for t in range(1, len(local)):  # a speck still there sits where it sat on the tray (it moves with it)
         keep = left[t]
