@@ -4,22 +4,25 @@ The paper's "five-phase wipe-then-pour routine", on a table holding a sponge, a 
 carries a dust patch (``dust``, lying on ``dest``: the specks move with it and only a sponge touching it
 wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a food item (``food``) inside:
 
-1. **Pick the sponge** (its DB top grasp): pre-grasp, approach, close, lift above the tray's rim.
-2. **Wipe**: move the sponge over the first corner of the dust patch, press it onto the tray's floor with a
-   guarded move (stops at ``press_force`` N, never more than ``max_press_force``), then wipe in a zig-zag of
-   sliding guarded strokes over the patch (``press=`` down: in contact all the way, the force regulated
-   between ``stroke_force`` and ``max_stroke_force``; light enough that the tray does not slide along),
-   rows ``row_overlap`` of the sponge's narrow width apart, the sponge kept ``wall_clearance`` inside the
-   tray's walls. Lift off. Dust left after the strokes ends the attempt (``target_fail``, "wipe
-   incomplete").
+1. **Pick the sponge** (its DB top grasp, raised by ``sponge_grasp_raise``): pre-grasp, approach, close,
+   lift above the tray's rim.
+2. **Wipe**: move the sponge over the first corner of the dust patch (the hand turned 0°, 180° or ±90° about
+   the vertical, the first the arm reaches), press it onto the tray's floor with a guarded move (stops at
+   ``press_force`` N, never more than ``max_press_force``), then wipe in a zig-zag of sliding guarded
+   strokes over the patch (``press=`` down: in contact all the way, the force regulated between
+   ``stroke_force`` and ``max_stroke_force``; light enough that the tray does not slide along), rows
+   ``row_overlap`` of the sponge's narrow width apart, the sponge kept ``wall_clearance`` inside the tray's
+   walls, each stroke aimed at where the tray is now; then ``touch_up_strokes`` over the remaining speck
+   nearest the sponge. Lift off. Dust left ends the attempt (``target_fail``, "wipe incomplete").
 3. **Put the sponge back** where it was picked up, release, retreat.
-4. **Grasp the source** (Layer 2's pick): a DB rim pinch at least ``food_clearance`` (plus the food's half
-   width) from the food, round-robin over the reachable ones; lift clear of everything.
-5. **Pour**: carry the bowl level in a straight line to the pour stance, then tilt it in ``pour_steps``
-   turns about the horizontal axis through the TCP perpendicular to the bowl's grasp radius, its far side
-   down, to ``pour_angle_deg``. The stance is computed so that at the final tilt the bowl's mouth is over
-   the tray's centre and its lowest corner ``pour_clearance`` above the tray's rim; hold while the food
-   falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at rest).
+4. **Grasp the source** (Layer 2's pick): a DB rim pinch whose open fingertips keep ``food_clearance`` from
+   the food (:meth:`CarrierPick.clear_of_food`), on the bowl's far side (:meth:`CarrierPick.far_side`),
+   round-robin over the reachable ones; lift clear of everything.
+5. **Pour**: carry the bowl (joint-space, ``carry_speed``) to the pour stance, then tilt it in
+   ``pour_steps`` joint-space turns about the horizontal axis through the TCP perpendicular to the bowl's
+   grasp radius, its far side down, to ``pour_angle_deg`` (:meth:`DustySkeleton._pour_plan`: the mouth over
+   the tray, the bowl's outline ``pour_clearance`` above the rim, every step reachable); hold while the
+   food falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at rest).
 
 The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
 pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.
@@ -158,7 +161,7 @@ class DustySkeleton(FamilySkeleton):
                       "joint-space moves (the wrist passes a singularity near 90°)", 0.0, 180.0),
                 Param("pour_aim_offsets", tuple, "m (x, y pairs in the tray's frame) of the other points "
                       "the mouth may pour over if the centre's stance is out of reach", -0.2, 0.2),
-                Param("pour_clearance", float, "m the tilted bowl's lowest corner keeps above the rim",
+                Param("pour_clearance", float, "m the tilted bowl's outline keeps above the tray's rim",
                       0.0, 0.3),
                 Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
                       1, 2000)),
