@@ -165,7 +165,7 @@ def test_spec_formula_beyond_the_limits_is_refused_by_generate(tmp_path: Path) -
 def test_family_name_with_markup_is_printed_literally() -> None:
     line = one_error(mgdata("generate", "--family", "a[/x]", "--n", "1"), "no recipe for family 'a[/x]'")
     # settings files such as sim.toml are no family recipes
-    assert line.endswith("(family recipes: clutter_dry, clutter_liquid, jar)")
+    assert line.endswith("(family recipes: clutter_dry, clutter_liquid, dusty, jar)")
 
 
 @pytest.mark.parametrize("workers", ["0", "-1"])

@@ -148,5 +148,5 @@ def test_unknown_family_lists_only_family_recipes() -> None:
     with pytest.raises(UnknownFamilyError) as err:
         load_recipe("nosuch")
     message = str(err.value)
-    assert "(family recipes: clutter_dry, clutter_liquid, jar)" in message
+    assert "(family recipes: clutter_dry, clutter_liquid, dusty, jar)" in message
     assert "sim" not in message.split("recipes:")[1]
