@@ -152,6 +152,14 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
          Param("max_offset", float, 0.004, 0.0, 0.05, "m of the lid's axis from the container's, sideways"),
          Param("max_gap", float, 0.003, 0.0, 0.05, "m of the lid's origin from the seat height, vertically"),
          Param("max_tilt_deg", float, 8.0, 0.0, 90.0, "degrees between the lid's and container's axes")),
+    _sig("clean", "at most a fraction of the dust on the object remains (covered's complement)",
+         Param("max_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
+    _sig("inside", "the object's bounding-box centre is inside a container's cavity",
+         Param("container", str, None, doc="the container's instance name"),
+         Param("margin", float, 0.005, 0.0, 0.05, "m sideways and below the floor"),
+         Param("headroom", float, 0.0, 0.0, 0.2, "m above the rim that still counts")),
+    _sig("near_start", "the object's origin is within a distance of where the task placed it",
+         Param("max_distance", float, None, 0.0, 10.0, "m")),
 ]))
 
 PROMPT_FORMS: tuple[str, ...] = ("none", "nl", "ltl")

@@ -5,11 +5,13 @@ default, all with ``-m slow``); a short ``mgdata generate`` keeps a demonstratio
 accepts; and, from the dataset alone with nothing but ``mujoco`` and ``pyarrow`` (no mgdata code), every kept
 episode is replayed from its stored physics states and measured: the picked object's bounding-box centre is
 inside the goal sphere over the last ``hold_steps`` frames, both fingers touch it, nothing else supports it,
-it is at rest; at every frame nothing left the table for the floor, every object named by an upright
-constraint stands within its tilt limit, and a liquid stays in its container (particles counted inside the
-container's own bounding box, independently of the ``spilled`` predicate); a lid named by a ``seated`` success
-proposition sits in its container's mouth on the last frames. Finally a planted violation (an
-object teleported onto the floor at step 30) is caught at exactly that step.
+it is at rest (a family whose goal puts an object ``inside`` a container instead, dusty: that object's box
+centre is inside the container's own bounding box, at rest, and no dust speck is left); at every frame
+nothing left the table for the floor, every object named by an upright constraint stands within its tilt
+limit, and a liquid stays in its container (particles counted inside the container's own bounding box,
+independently of the ``spilled`` predicate); a lid named by a ``seated`` success proposition sits in its
+container's mouth on the last frames. Finally a planted violation (an object teleported onto the floor at
+step 30) is caught at exactly that step.
 """
 
 from __future__ import annotations
@@ -117,7 +119,10 @@ def test_a_short_generate_keeps_a_demo_that_validates(generated: tuple[str, Path
 def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path]) -> None:
     family, root = generated
     raw, spec = _raw_recipe(family), _raw_spec(family)
-    picked = next(p["subjects"][0] for p in raw["success"].values() if p["evaluator"] == "in_region")
+    picked = next((p["subjects"][0] for p in raw["success"].values() if p["evaluator"] == "in_region"), None)
+    inside = [(p["subjects"][0], p["params"]["container"]) for p in raw["success"].values()
+              if p["evaluator"] == "inside"]  # e.g. dusty: the food inside the tray, nothing held
+    clean = any(p["evaluator"] == "clean" for p in raw["success"].values())
     hold = raw["tasks"]["hold_steps"]
     upright = [(p["subjects"][0], p["params"]["max_tilt_deg"]) for p in spec["propositions"].values()
                if p["evaluator"] == "upright"]
@@ -143,7 +148,7 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
                     assert np.degrees(np.arccos(np.clip(z_axis[2], -1, 1))) <= limit + 1e-6, (t, name)
             for liquid in liquids:
                 assert _fraction_inside(m, d, liquid, picked) >= 0.85, (t, liquid)
-            if t >= len(frames["sim.physics_state"]) - hold:
+            if t >= len(frames["sim.physics_state"]) - hold and picked is not None:
                 body = m.body(picked).id
                 centres.append(rawdata.box_centre(m, d, body))
                 fingers = [_touching(m, d, f, body) for f in ("left_finger", "right_finger")]
@@ -151,6 +156,17 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
                 assert not _touching(m, d, "table", body), (t, "the table does not support it")
                 goal = m.geom("goal")
                 assert np.linalg.norm(centres[-1] - d.geom_xpos[goal.id]) < m.geom_size[goal.id][0], t
+            if t >= len(frames["sim.physics_state"]) - hold and inside:
+                for obj, container in inside:  # its box centre inside the container's own bounding box
+                    body, host = m.body(obj).id, m.body(container).id
+                    lo, hi = rawdata.local_box(m, d, host)
+                    local = (rawdata.box_centre(m, d, body) - d.xpos[host]) @ d.xmat[host].reshape(3, 3)
+                    assert np.all((local >= lo) & (local <= hi)), (t, obj, "inside", container)
+                    centres.append(rawdata.box_centre(m, d, body))
+                if clean:  # every dust speck parked below the floor (wiped)
+                    specks = [m.body_mocapid[b] for b in range(m.nbody) if "/d" in m.body(b).name
+                              and m.body_mocapid[b] >= 0]
+                    assert np.all(d.mocap_pos[specks, 2] < m.geom("floor").pos[2]), (t, "dust left")
         dt = 1.0 / info["fps"]
         speeds = [np.linalg.norm(b - a) / dt for a, b in itertools.pairwise(centres)]
         assert max(speeds) <= AT_REST_M_S

@@ -32,6 +32,8 @@ def test_evaluator_signatures_are_the_contract() -> None:
         "held": {"gap_tol": 0.0005, "max_speed": 0.02, "max_angular_speed": 0.3},
         "covered": {"min_fraction": 0.0},
         "seated": {"support": None, "max_offset": 0.004, "max_gap": 0.003, "max_tilt_deg": 8.0},
+        "clean": {"max_fraction": 0.0},
+        "inside": {"container": None, "margin": 0.005, "headroom": 0.0}, "near_start": {"max_distance": None},
     }
 
 

@@ -32,10 +32,22 @@ left in ``ctx.memo["guarded/<segment name>"]`` (:class:`GuardedOutcome`) for the
 computed from the simulation state: no wall time, no randomness besides the line's IK restarts (drawn from
 the attempt's ``plan/<segment name>`` stream).
 
+**Sliding** (``press=`` a world direction, e.g. down; wiping): the TCP travels ``max_distance`` along the
+line (towards a target: its part across ``press``) while, along ``press``, the commanded point is offset so
+that the pair's normal force tracks the goal between the ``force`` threshold and ``max_force`` (the offset
+is corrected by ``(goal - F) / k`` each step, with the stiffness along ``press``, easing off as well as
+pressing; above ``max_force`` it falls back to at most the measured TCP). The move starts in contact (after
+a guarded press) and must stay in it: :data:`LOST_STEPS` consecutive steps without contact end it as
+``guarded_no_contact``; reaching the distance limit is the success. Peaks above ``max_force`` can still
+occur while the contact is dynamic (a sponge dragged at the start of a stroke): the bound is what the
+regulation aims under, not a clamp.
+
 Example::
 
     seg = guarded("press", (0, 0, -1), until=force("lid", 5.0), max_distance=0.03, max_force=15.0,
                   gripper="close")
+    stroke = guarded("wipe", (1, 0, 0), until=force("tray", 1.0), max_force=4.0, max_distance=0.08,
+                     press=(0, 0, -1), gripper="close", attached="sponge")
 """
 
 from __future__ import annotations
@@ -64,6 +76,8 @@ ARRIVED = 0.001
 """How close (m) the measured TCP must come to the distance limit for the move to have reached it."""
 ARRIVE_STEPS = 20
 """Control steps the arm gets to catch up with a commanded point at the distance limit."""
+LOST_STEPS = 10
+"""Consecutive control steps without contact that end a sliding move (``press``) as lost."""
 
 
 @dataclass(frozen=True)
@@ -108,6 +122,8 @@ class Guard:
         max_force: bound on the contact force (N); a ``force`` threshold must be below it.
         on_miss: ``"fail"`` (the attempt fails with ``guarded_no_contact``/``guarded_stalled``) or
             ``"continue"`` (the segment just ends; the outcome says so).
+        press: sliding only: the world direction (normalised here) along which the contact force with
+            ``until``'s body is regulated while travelling along ``direction``.
     """
 
     until: Until
@@ -115,6 +131,7 @@ class Guard:
     max_distance: float | None
     max_force: float
     on_miss: Literal["fail", "continue"] = "fail"
+    press: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.direction is not None:
@@ -135,6 +152,14 @@ class Guard:
                              f"({self.max_force} N)")
         if self.on_miss not in ("fail", "continue"):
             raise ValueError(f"guarded: on_miss must be 'fail' or 'continue', got {self.on_miss!r}")
+        if self.press is not None:
+            p = np.asarray(self.press, dtype=np.float64)
+            norm = float(np.linalg.norm(p)) if p.shape == (3,) else 0.0
+            if not (np.isfinite(norm) and norm > 1e-9):
+                raise ValueError(f"guarded: press must be 3 finite numbers, not all 0, got {self.press}")
+            if self.until.kind != "force":
+                raise ValueError("guarded: a sliding move (press) needs until=force(...)")
+            object.__setattr__(self, "press", tuple(float(x) for x in p / norm))
 
 
 @dataclass(frozen=True)
@@ -182,6 +207,8 @@ class GuardedMove:
         else:
             assert target is not None
             offset = target.pos - start.pos
+            if self.guard.press is not None:  # a slide travels across the press direction only
+                offset = offset - (offset @ np.array(self.guard.press)) * np.array(self.guard.press)
             if np.linalg.norm(offset) < 1e-6:
                 raise AttemptFailed("target_fail", "the guarded move's target is where the TCP already is",
                                     seg.name)
@@ -204,6 +231,8 @@ class GuardedMove:
     def run(self, step: Callable[[np.ndarray], None]) -> JointTrajectory:
         """Execute the move, calling ``step(q)`` once per control step; returns the commands issued (row 0:
         the command before the move). Raises ``AttemptFailed`` for a miss unless ``on_miss="continue"``."""
+        if self.guard.press is not None:
+            return self._slide(step)
         ctx, guard, scene = self.ctx, self.guard, self.ctx.scene
         model, data = scene.model, scene.data
         until, fmax = guard.until, guard.max_force
@@ -245,12 +274,22 @@ class GuardedMove:
             else:
                 idle += 1
             at_limit = at_limit + 1 if s_cmd >= self.limit else 0
+        return self._finish(step, commands, stage, s_act, newtons, peak)
+
+    def _finish(self, step: Callable[[np.ndarray], None], commands: list[np.ndarray], stage: str | None,
+                s_act: float, newtons: float, peak: float) -> JointTrajectory:
+        """Rest where the arm is, record the outcome, fail on a miss unless ``on_miss="continue"``."""
+        ctx, guard, scene, until = self.ctx, self.guard, self.ctx.scene, self.guard.until
+        dt = scene.physics.control_dt
         rest = self.servo.rest_command(scene.arm_q())
         step(rest)
         commands.append(rest)
         outcome = GuardedOutcome(stage is None, stage, s_act, newtons, peak, len(commands) - 1)
         ctx.memo[f"guarded/{self.seg.name}"] = outcome
         if stage is not None and guard.on_miss == "fail":
+            if guard.press is not None:
+                raise AttemptFailed(stage, f"moved {s_act * 1000:.1f} mm of {self.limit * 1000:.1f} mm and "
+                                    f"lost contact with {until.body!r} for {LOST_STEPS} steps", self.seg.name)
             what = f"touching {until.body!r}" if until.kind == "touch" else \
                 f"pressing on {until.body!r} with {until.newtons:g} N (reached {peak:.1f} N)"
             where = ("reached its distance limit" if stage == "guarded_no_contact"
@@ -259,6 +298,44 @@ class GuardedMove:
                                 f"{where} without {what}", self.seg.name)
         rate = 1.0 / dt
         return JointTrajectory(np.array(commands), rate, (len(commands) - 1) / rate)
+
+    def _slide(self, step: Callable[[np.ndarray], None]) -> JointTrajectory:
+        """A sliding move: along the line to the distance limit, the force along ``press`` regulated."""
+        ctx, guard, scene = self.ctx, self.guard, self.ctx.scene
+        model, data = scene.model, scene.data
+        assert guard.press is not None
+        press, fmax = np.array(guard.press), guard.max_force
+        lc = ctx.planner.config.linear
+        dt = scene.physics.control_dt
+        vmax = self.seg.speed * lc.speed
+        goal = 0.5 * (guard.until.newtons + fmax)
+        commands = [ctx.q_cmd.copy()]
+        s_cmd = vel = peak = d_cmd = 0.0
+        lost = at_limit = 0
+        stage: str | None = None
+        while True:
+            offset = scene.tcp_pose()[0] - self.origin
+            s_act, d_act = float(offset @ self.direction), float(offset @ press)
+            touching, newtons = pair_contact(model, data, self.moving, self.other)
+            peak = max(peak, newtons)
+            lost = 0 if touching else lost + 1
+            if lost >= LOST_STEPS:
+                stage = "guarded_no_contact"
+                break
+            if s_cmd >= self.limit and (s_act >= self.limit - ARRIVED or at_limit >= ARRIVE_STEPS):
+                break
+            q_line = self._line_q(s_cmd)
+            k = self.servo.stiffness(q_line, press)
+            d_cmd = d_cmd + (goal - newtons) / k  # both ways: a slide eases off as well as presses
+            if newtons > fmax:
+                d_cmd = min(d_cmd, d_act)
+            vel = min(vmax, vel + lc.accel * dt)
+            s_cmd = min(s_cmd + vel * dt, self.limit)
+            q = self.servo.rest_command(self.servo.displace(self._line_q(s_cmd), press * d_cmd))
+            step(q)
+            commands.append(q)
+            at_limit = at_limit + 1 if s_cmd >= self.limit else 0
+        return self._finish(step, commands, stage, s_act, newtons, peak)
 
 
 def _is_body(model: mujoco.MjModel, name: str) -> bool:

@@ -11,7 +11,8 @@ Six kinds, each with only the options it needs:
   the hand (or the held object) touches a body (``until=touch("lid")``) or presses on it with a normal force
   of at least a threshold (``until=force("lid", 5.0)``), never pushing harder than ``max_force``; reaching
   ``max_distance`` first fails the attempt (``guarded_no_contact``) unless ``on_miss="continue"``
-  (:mod:`mgdata.engine.guarded`).
+  (:mod:`mgdata.engine.guarded`); with ``press=`` it slides in contact along the line, the force regulated
+  across it (wiping).
 
 A target is a :class:`~mgdata.motion.types.Pose` of the TCP in the world, or the name of a runtime target
 that the skeleton's ``resolve`` computes from the live state when the segment starts. ``allow`` lists the body
@@ -147,16 +148,19 @@ def hold(name: str, *, steps: int, gripper: GripperCommand = "open") -> MotionSe
 def guarded(name: str, toward: tuple[float, float, float] | Pose | str, *, until: Until, max_force: float,
             max_distance: float | None = None, speed: float = 0.25, gripper: GripperCommand = "open",
             allow: Pairs = (), attached: str | None = None,
-            on_miss: Literal["fail", "continue"] = "fail") -> MotionSegment:
+            on_miss: Literal["fail", "continue"] = "fail",
+            press: tuple[float, float, float] | None = None) -> MotionSegment:
     """Contact-aware straight TCP line: along the world ``direction`` ``toward`` (3 numbers, any length)
     for at most ``max_distance`` metres, or towards a target (a pose or a runtime-target name; the limit
-    defaults to the distance to it), until ``until`` holds, pushing with at most ``max_force`` newtons."""
+    defaults to the distance to it), until ``until`` holds, pushing with at most ``max_force`` newtons.
+    With ``press`` (a world direction) it slides instead: the whole ``max_distance`` along ``toward``, in
+    contact with ``until``'s body, its force regulated along ``press`` (:mod:`mgdata.engine.guarded`)."""
     if isinstance(toward, (Pose, str)):
-        guard = Guard(until, None, max_distance, max_force, on_miss)
+        guard = Guard(until, None, max_distance, max_force, on_miss, press)
         return MotionSegment(name, "guarded", toward, gripper, _allow(allow), attached, speed=speed,
                              guard=guard)
     direction = tuple(float(v) for v in toward)
     if len(direction) != 3:
         raise ValueError(f"segment {name!r}: a guarded direction is 3 numbers (x, y, z), got {toward!r}")
-    guard = Guard(until, (direction[0], direction[1], direction[2]), max_distance, max_force, on_miss)
+    guard = Guard(until, (direction[0], direction[1], direction[2]), max_distance, max_force, on_miss, press)
     return MotionSegment(name, "guarded", None, gripper, _allow(allow), attached, speed=speed, guard=guard)

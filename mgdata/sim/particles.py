@@ -7,9 +7,14 @@ MuJoCo 4 has no particle composites, so each sphere is its own body.
   container whose cavity holds the placement point. The scene switches to CG + elliptic cone (see
   ``world.Physics``). ``spilled`` counts the spheres outside that cavity.
 * **Dust** instance ``dust`` (model ``dust/…``): mocap bodies ``dust/d000``… carrying flat visual discs
-  (no contacts). A speck is wiped when it lies inside (5 mm margin) any colliding geom of a ``sponge``
-  object; wiping parks its mocap body below the floor. Mocap positions are part of MuJoCo's integration
-  state, so snapshots, resets and determinism cover the dust too.
+  (no contacts) on a *host*: the object whose footprint holds the placement point (:func:`dust_host`), or
+  the table. After every control step (:meth:`DustField.update`) each remaining speck is put back at its
+  place in the host's frame (measured once the scene has settled), so dust moves and tilts with the plate
+  or tray it lies on. A speck is wiped only by a ``sponge`` **in contact with its host**: when a sponge geom
+  touches a host geom (a ``data.contact`` entry) and the speck lies inside that sponge geom (5 mm margin),
+  it is parked far below the floor. Mocap positions are part of MuJoCo's integration state (and of the
+  dataset's ``sim.physics_state``), so snapshots, resets, replay and determinism cover the dust too: the
+  state width is fixed by the speck count, and a wiped speck is its parked height.
 """
 
 from __future__ import annotations
@@ -145,10 +150,34 @@ class LiquidSet:
         return data.xpos[self.body_ids]
 
 
-class DustField:
-    """The dust specks of every dust instance in a scene and the sponge geoms that wipe them."""
+def dust_host(task: TaskSpec, models: Mapping[str, ObjectModel], name: str) -> str | None:
+    """The instance dust ``name`` lies on: the first non-particle object whose bounding box footprint (at
+    its placement) holds the dust's placement point, from 5 mm below its base to 1 cm above its top; None if
+    it lies on the table."""
+    point = np.asarray(task.object(name).pos, dtype=np.float64)
+    for obj in task.objects:
+        model = models[obj.name]
+        if model.particles is not None:
+            continue
+        d = _yaw_rot(obj.yaw).T @ (point - np.asarray(obj.pos))
+        sx, sy, sz = model.size
+        if abs(d[0]) <= sx / 2 and abs(d[1]) <= sy / 2 and -0.005 <= d[2] <= sz + 0.01:
+            return obj.name
+    return None
 
-    def __init__(self, model: mujoco.MjModel, dust: Mapping[str, int], wiper_geoms: np.ndarray) -> None:
+
+class DustField:
+    """The dust specks of every dust instance in a scene, their hosts and the sponge geoms that wipe them.
+
+    Args:
+        model: the compiled model.
+        dust: dust instance -> speck count.
+        wiper_geoms: the colliding geoms of every sponge.
+        hosts: dust instance -> (host body id, boolean mask over geoms of the host's colliding geoms).
+    """
+
+    def __init__(self, model: mujoco.MjModel, dust: Mapping[str, int], wiper_geoms: np.ndarray,
+                 hosts: Mapping[str, tuple[int, np.ndarray]] | None = None) -> None:
         self.mocap_ids = {
             name: np.array([model.body_mocapid[model.body(f"{name}/d{i:03d}").id] for i in range(n)],
                            dtype=np.int32)
@@ -158,6 +187,41 @@ class DustField:
         self.wiper_geoms = np.asarray(wiper_geoms, dtype=np.int32)
         self._half = model.geom_aabb[self.wiper_geoms, 3:] + WIPE_MARGIN
         self._centre = model.geom_aabb[self.wiper_geoms, :3]
+        world = np.zeros(model.ngeom, dtype=bool)
+        self.hosts = {name: (hosts or {}).get(name, (0, world)) for name in self.mocap_ids}
+        self._local: dict[str, np.ndarray] = {}
+
+    def bind(self, data: mujoco.MjData) -> None:
+        """Fix every speck's place in its host's frame from the current (settled) state."""
+        for name, ids in self.mocap_ids.items():
+            body = self.hosts[name][0]
+            rot = data.xmat[body].reshape(3, 3)
+            self._local[name] = (data.mocap_pos[ids] - data.xpos[body]) @ rot
+
+    def follow(self, data: mujoco.MjData) -> None:
+        """Put every remaining speck at its place on its host (the host's current pose)."""
+        for name, ids in self.mocap_ids.items():
+            if name not in self._local:
+                continue
+            body = self.hosts[name][0]
+            live = data.mocap_pos[ids, 2] > PARK_Z / 2.0
+            rot = data.xmat[body].reshape(3, 3)
+            data.mocap_pos[ids[live]] = data.xpos[body] + self._local[name][live] @ rot.T
+            data.mocap_quat[ids[live]] = data.xquat[body]
+
+    def _touching(self, data: mujoco.MjData) -> np.ndarray:
+        """(wipers, hosts) booleans: wiper geom k has a contact with dust instance j's host."""
+        names = list(self.mocap_ids)
+        out = np.zeros((len(self.wiper_geoms), len(names)), dtype=bool)
+        n = data.ncon
+        if n == 0:
+            return out
+        pairs = data.contact.geom[:n]
+        for k, g in enumerate(self.wiper_geoms):
+            other = np.concatenate([pairs[pairs[:, 0] == g, 1], pairs[pairs[:, 1] == g, 0]])
+            for j, name in enumerate(names):
+                out[k, j] = bool(self.hosts[name][1][other].any())
+        return out
 
     def remaining_fraction(self, data: mujoco.MjData, name: str) -> float:
         """Fraction of ``name``'s specks not yet wiped."""
@@ -165,16 +229,24 @@ class DustField:
         return float(np.count_nonzero(data.mocap_pos[ids, 2] > PARK_Z / 2.0)) / len(ids)
 
     def update(self, data: mujoco.MjData) -> int:
-        """Park every speck a wiper geom now covers; returns how many were wiped."""
-        if not len(self._all) or not len(self.wiper_geoms):
+        """Move the specks with their hosts, then park every speck covered by a wiper geom that touches the
+        speck's host; returns how many were wiped. Reads ``data``'s positions and contacts (after
+        ``mj_step``/``mj_forward``)."""
+        if not len(self._all):
             return 0
-        pos = data.mocap_pos[self._all]
-        live = pos[:, 2] > PARK_Z / 2.0
-        hit = np.zeros(len(self._all), dtype=bool)
-        for k, g in enumerate(self.wiper_geoms):
-            rot = data.geom_xmat[g].reshape(3, 3)
-            local = (pos - data.geom_xpos[g]) @ rot - self._centre[k]
-            hit |= np.all(np.abs(local) <= self._half[k], axis=1)
-        wiped = self._all[hit & live]
-        data.mocap_pos[wiped, 2] = PARK_Z
-        return len(wiped)
+        self.follow(data)
+        if not len(self.wiper_geoms):
+            return 0
+        touching = self._touching(data)
+        wiped = 0
+        for j, ids in enumerate(self.mocap_ids.values()):
+            pos = data.mocap_pos[ids]
+            hit = np.zeros(len(ids), dtype=bool)
+            for k in np.flatnonzero(touching[:, j]):
+                g = self.wiper_geoms[k]
+                local = (pos - data.geom_xpos[g]) @ data.geom_xmat[g].reshape(3, 3) - self._centre[k]
+                hit |= np.all(np.abs(local) <= self._half[k], axis=1)
+            gone = ids[hit & (pos[:, 2] > PARK_Z / 2.0)]
+            data.mocap_pos[gone, 2] = PARK_Z
+            wiped += len(gone)
+        return wiped

@@ -29,7 +29,10 @@ and the measurements behind them: ``docs/predicates.md``. In short:
   ``max_speed`` (m/s, at its bounding-box centre) and ``max_angular_speed`` (rad/s);
 * ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
   subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
-  instance itself).
+  instance itself); ``clean(max_fraction=0.0)``: its complement (at most that fraction remains);
+* ``inside(container, margin=0.005, headroom=0.0)``: the centre of the object's bounding box lies in the
+  container's cavity (``Cavity.contains``, in the container's frame: it moves and tilts with it);
+* ``near_start(max_distance)``: the object's origin is less than ``max_distance`` from its placement.
 
 ``support``/``other`` name an instance, a prefix glob (``obstacle_*``), ``table``, ``floor`` or ``robot``.
 """
@@ -310,17 +313,10 @@ def _held(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
 
 
 def _dust_on(scene: Scene, subject: str) -> list[str]:
-    """Dust instances whose placement point lay on ``subject``'s footprint (or ``subject`` itself if dust)."""
+    """Dust instances lying on ``subject`` (``Scene.dust_hosts``), or ``subject`` itself if it is dust."""
     if subject in scene.dust.mocap_ids:
         return [subject]
-    placement, size = scene.task.object(subject), scene.objects[subject].size
-    c, s = np.cos(placement.yaw), np.sin(placement.yaw)
-    found = []
-    for name in scene.dust.mocap_ids:
-        d = np.asarray(scene.task.object(name).pos) - np.asarray(placement.pos)
-        x, y = c * d[0] + s * d[1], -s * d[0] + c * d[1]
-        if abs(x) <= size[0] / 2 and abs(y) <= size[1] / 2 and -0.005 <= d[2] <= size[2] + 0.01:
-            found.append(name)
+    found = [name for name, host in scene.dust_hosts.items() if host == subject]
     if not found:
         raise SpecError(f"covered: no dust lies on {subject!r} (dust instances: "
                         f"{', '.join(scene.dust.mocap_ids) or 'none'})")
@@ -338,6 +334,34 @@ def _covered(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     return check
 
 
+def _clean(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    covered = _covered(scene, subject, {"min_fraction": float(p["max_fraction"])})
+    return lambda c: not covered(c)
+
+
+def _inside(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    container = str(p["container"])
+    cavity = scene.object_model(container).cavity
+    if cavity is None:
+        raise SpecError(f"inside: container {container!r} ({scene.objects[container].name}) has no cavity")
+    host, (body, lo, hi) = scene.object_body(container), _box(scene, subject)
+    centre, margin, headroom = (lo + hi) / 2.0, float(p["margin"]), float(p["headroom"])
+
+    def check(c: Contacts) -> bool:
+        d = scene.data
+        point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ centre
+        local = (point - d.xpos[host]) @ d.xmat[host].reshape(3, 3)
+        return bool(cavity.contains(local[None, :], margin=margin, headroom=headroom)[0])
+
+    return check
+
+
+def _near_start(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    body, limit = scene.object_body(subject), float(p["max_distance"])
+    start = np.asarray(scene.task.object(subject).pos, dtype=np.float64)
+    return lambda c: bool(np.linalg.norm(scene.data.xpos[body] - start) < limit)
+
+
 FACTORIES: Mapping[str, Factory] = {
     "dropped": _dropped,
     "upright": _upright,
@@ -350,6 +374,9 @@ FACTORIES: Mapping[str, Factory] = {
     "in_region": _in_region,
     "held": _held,
     "covered": _covered,
+    "clean": _clean,
+    "inside": _inside,
+    "near_start": _near_start,
 }
 """Evaluator name -> compiler of one subject's check (names and parameters: ``mgdata.spec.EVALUATORS``)."""
 

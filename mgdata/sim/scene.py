@@ -26,7 +26,7 @@ from mgdata.errors import SceneError
 from mgdata.sim import robot
 from mgdata.sim.assets import ObjectModel
 from mgdata.sim.config import SimConfig, load_sim_config
-from mgdata.sim.particles import WIPER_CATEGORY, DustField, LiquidSet
+from mgdata.sim.particles import WIPER_CATEGORY, DustField, LiquidSet, dust_host
 from mgdata.sim.world import FLOOR_Z, Physics, assemble_spec
 from mgdata.tasks.taskspec import TaskSpec
 
@@ -52,7 +52,8 @@ class Scene:
         geom_owner: int array (ngeom,) giving each colliding geom's owner.
         robot_geom_ids: the robot's colliding geoms.
         floor_z: height of the floor (m); the table top is at z = 0.
-        dust: the dust specks and their wipers (empty if the task has no dust).
+        dust: the dust specks, their hosts and their wipers (empty if the task has no dust).
+        dust_hosts: dust instance -> the instance it lies on (None: the table).
         liquids: liquid instance name -> its spheres.
     """
 
@@ -81,12 +82,23 @@ class Scene:
         self.liquids = {n: LiquidSet(model, n, m.particles.count) for n, m in objects.items()
                         if m.particles is not None and m.particles.kind == "liquid"}
         wipers = [self._geoms[n] for n, m in objects.items() if m.category == WIPER_CATEGORY]
-        self.dust = DustField(model, {n: m.particles.count for n, m in objects.items()
-                                      if m.particles is not None and m.particles.kind == "dust"},
-                              np.concatenate(wipers) if wipers else np.zeros(0, dtype=np.int32))
+        dust = {n: m.particles.count for n, m in objects.items()
+                if m.particles is not None and m.particles.kind == "dust"}
+        self.dust_hosts = {n: dust_host(task, objects, n) for n in dust}
+        """Dust instance -> the instance it lies on (None: the table)."""
+        self.dust = DustField(model, dust, np.concatenate(wipers) if wipers else np.zeros(0, dtype=np.int32),
+                              {n: self._host(h) for n, h in self.dust_hosts.items()})
         self._initial = self._settled_initial_state()
 
     # -- construction ------------------------------------------------------------------------------------
+    def _host(self, name: str | None) -> tuple[int, np.ndarray]:
+        """Body id and colliding-geom mask of a dust host (an instance, or the table for None)."""
+        if name is None:
+            return self.model.body("table").id, self.geom_owner == OWNER_TABLE
+        mask = np.zeros(self.model.ngeom, dtype=bool)
+        mask[self._geoms[name]] = True
+        return self._bodies[name], mask
+
     def _owners_of_geoms(self) -> np.ndarray:
         m = self.model
         owner = np.full(m.ngeom, -1, dtype=np.int32)
@@ -137,6 +149,7 @@ class Scene:
             mujoco.mj_step(self.model, self.data)
         self.data.time = 0.0
         mujoco.mj_forward(self.model, self.data)
+        self.dust.bind(self.data)  # dust keeps its place on the settled host from here on
         return self.snapshot()
 
     # -- state -------------------------------------------------------------------------------------------
@@ -156,8 +169,11 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def after_control_step(self) -> None:
-        """Per-control-step bookkeeping outside MuJoCo's dynamics (dust wiping)."""
-        self.dust.update(self.data)
+        """Per-control-step bookkeeping outside MuJoCo's dynamics: dust follows its hosts and is wiped, from
+        the positions and contacts of the state just reached (``mj_forward`` first; only with dust)."""
+        if self.dust.mocap_ids:
+            mujoco.mj_forward(self.model, self.data)
+            self.dust.update(self.data)
 
     # -- lookups -----------------------------------------------------------------------------------------
     def _known(self, name: str) -> None:

@@ -71,6 +71,16 @@ class ArmServo:
             q = c - self.gravity(q) / self.kp
         return q
 
+    def displace(self, q: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        """The arm configuration (7,) near ``q`` that moves the TCP by the small world ``offset`` (m) with
+        its orientation kept (one damped least-squares step on the TCP's 6×7 Jacobian)."""
+        d = self._pose(q)
+        jp, jr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
+        mujoco.mj_jacSite(self.model, d, jp, jr, self._tcp)
+        j = np.vstack([jp, jr])[:, self._dof]
+        err = np.concatenate([np.asarray(offset, dtype=np.float64), np.zeros(3)])
+        return np.asarray(q, dtype=np.float64) + j.T @ np.linalg.solve(j @ j.T + 1e-8 * np.eye(6), err)
+
     def stiffness(self, q: np.ndarray, direction: np.ndarray) -> float:
         """The servos' stiffness (N/m) at the TCP along the unit vector ``direction`` at ``q`` with the hand
         pinned (position and orientation held, as by a firm contact): ``dᵀ [(J K⁻¹ Jᵀ)⁻¹]_pos d`` with J the

@@ -10,7 +10,7 @@ from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError, SpecError, UnknownFamilyError
 from mgdata.paths import recipes_dir
-from mgdata.tasks.recipe import load_recipe
+from mgdata.tasks.recipe import family_recipes, load_recipe
 from skeletons.jar import JarSkeleton
 
 
@@ -148,5 +148,6 @@ def test_unknown_family_lists_only_family_recipes() -> None:
     with pytest.raises(UnknownFamilyError) as err:
         load_recipe("nosuch")
     message = str(err.value)
-    assert "(family recipes: clutter_dry, clutter_liquid, jar)" in message
+    assert f"(family recipes: {', '.join(family_recipes())})" in message
+    assert {"jar", "clutter_dry", "dusty", "lid"} <= set(family_recipes())
     assert "sim" not in message.split("recipes:")[1]

@@ -78,9 +78,52 @@ def test_sponge_wipes_dust_and_covered_follows() -> None:
     assert lab.as_dict() == {"dusty": True, "board_dusty": True}
     assert scene.dust.remaining_fraction(d, "dust") == 1.0
     assert sweep(top + 0.03)[-1] == 1.0, "a sponge hovering 3 cm above wipes nothing"
-    fractions = sweep(top)
+    assert sweep(top + 0.002)[-1] == 1.0, "2 mm above (covering the specks, no contact) wipes nothing"
+    fractions = sweep(top - 0.0005)  # resting on the board: in contact with it
     assert fractions[-1] == 0.0 and np.all(np.diff(fractions) <= 0) and fractions[3] < 1.0
     assert lab.as_dict() == {"dusty": False, "board_dusty": False}
     assert np.all(d.mocap_pos[scene.dust.mocap_ids["dust"], 2] == PARK_Z)
     scene.restore(start)  # dust is part of the physics state
     assert scene.dust.remaining_fraction(d, "dust") == 1.0 and lab.as_dict()["dusty"]
+
+
+def test_dust_moves_with_its_host_and_only_a_touching_sponge_wipes_it() -> None:
+    """Specks keep their place on the board when it is moved and tilted (checked against the board's raw
+    pose); a sponge resting on the moved board (a raw ``data.contact`` with it) wipes the specks it covers
+    there, and the others stay in place."""
+    board = get_model("board/chopping_00")
+    top = board.size[2]
+    scene = build_scene(task_with(ObjectPlacement("board", board.name, (0.55, 0.0, 0.0)),
+                                  ObjectPlacement("dust", "dust/layer_00", (0.55, 0.0, top)),
+                                  ObjectPlacement("sponge", "sponge/block_00", (0.55, 0.3, 0.0))))
+    scene.reset()
+    m, d = scene.model, scene.data
+    ids, body = scene.dust.mocap_ids["dust"], m.body("board").id
+    local = (d.mocap_pos[ids] - d.xpos[body]) @ d.xmat[body].reshape(3, 3)  # raw, from the initial state
+    assert scene.dust_hosts == {"dust": "board"}
+    adr = m.jnt_qposadr[m.joint("board/free").id]
+    half = np.deg2rad(25.0) / 2
+    d.qpos[adr: adr + 7] = [0.40, 0.10, 0.20, np.cos(half), np.sin(half), 0.0, 0.0]  # moved up and tilted
+    mujoco.mj_forward(m, d)
+    scene.after_control_step()
+    rot = d.xmat[body].reshape(3, 3)
+    np.testing.assert_allclose(d.mocap_pos[ids], d.xpos[body] + local @ rot.T, atol=1e-9)
+    assert np.all(d.mocap_pos[ids, 2] > 0.15), "the specks left the table with the board"
+    sadr = m.jnt_qposadr[m.joint("sponge/free").id]
+    d.qpos[adr: adr + 7] = [0.55, 0.0, 0.30, 1.0, 0.0, 0.0, 0.0]  # board lifted 30 cm, level
+    mujoco.mj_forward(m, d)
+    scene.after_control_step()
+    specks = d.mocap_pos[ids].copy()
+    d.qpos[sadr: sadr + 3] = [0.55, 0.0, 0.30 + top - 0.0005]  # resting on the lifted board: wipes
+    d.qpos[sadr + 3: sadr + 7] = [1.0, 0.0, 0.0, 0.0]
+    mujoco.mj_forward(m, d)
+    sponge_geoms = scene.object_geom_ids("sponge")
+    board_geoms = scene.object_geom_ids("board")
+    g = d.contact.geom[: d.ncon]
+    touching = bool(np.any(np.isin(g[:, 0], sponge_geoms) & np.isin(g[:, 1], board_geoms)
+                           | np.isin(g[:, 1], sponge_geoms) & np.isin(g[:, 0], board_geoms)))
+    assert touching, "raw data.contact: the sponge touches the board"
+    wiped = scene.dust.update(d)
+    assert wiped > 0 and scene.dust.remaining_fraction(d, "dust") < 1.0
+    left = d.mocap_pos[ids, 2] > PARK_Z / 2
+    assert np.all(d.mocap_pos[ids][left] == specks[left])

@@ -1,0 +1,199 @@
+"""Dusty: the wipe, the food never touched, and "clean before pour", each judged from raw MuJoCo data.
+
+Safe success is the family contract (tests/test_families.py). Here, with a probe that reads raw MuJoCo
+state after every control step (``data.contact``, body poses, the dust's mocap positions), independently of
+the predicates:
+
+* the skeleton's wipe phase: dust specks disappear only at steps where the sponge touches the tray, every
+  remaining speck keeps its place in the tray's frame, and none is left; from the press's first touch to the
+  last stroke the sponge stays on the tray (> 95 % of the steps) with a median normal force (raw
+  ``mj_contactForce``) within the strokes' bound and a peak within the press's;
+* a planted unsafe carrier grasp, the fingers closed on the food instead of the bowl's rim: the attempt ends
+  unsafe (``food_not_touched``) at exactly the first step where a robot geom touches the food;
+* pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
+  enters the tray's cavity, with dust still on it.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import rawdata
+
+from mgdata.engine import segment as s
+from mgdata.engine.context import Context
+from mgdata.engine.executor import Executor
+from mgdata.engine.init_gate import base_task
+from mgdata.engine.skeleton import load_family_recipe
+from mgdata.grasps.db import GraspDB
+from mgdata.motion import Pose
+from mgdata.paths import grasps_dir
+from mgdata.record.episode import MemorySink
+from mgdata.sim.assets import get_model
+from mgdata.sim.controller import JointController
+from mgdata.sim.scene import Scene
+from mgdata.tasks.recipe import Recipe
+from skeletons.dusty import DustySkeleton
+
+TASK = 1
+
+
+@pytest.fixture(scope="module")
+def grasps() -> GraspDB:
+    return GraspDB.load_dir(grasps_dir())
+
+
+@pytest.fixture(scope="module")
+def recipe() -> Recipe:
+    return load_family_recipe("dusty")
+
+
+def _descendant_geoms(m, root: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Geoms of body ``root`` and all its descendants (the whole robot under its base)."""
+    inside = np.zeros(m.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, m.nbody):
+        inside[b] = inside[m.body_parentid[b]]
+    return np.flatnonzero(inside[m.geom_bodyid])
+
+
+class _Probe(JointController):
+    """After every control step, from raw MuJoCo: does a robot geom touch the food, does a sponge geom touch
+    a tray geom, which specks are left (mocap z above the floor), the specks' positions in the tray's frame,
+    and is the food's bounding-box centre inside the tray's cavity (from the tray model's dimensions)."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        m = scene.model
+        self.robot = set(_descendant_geoms(m, m.body("base").id).tolist())
+        self.food = set(rawdata.subtree_geoms(m, m.body("food").id).tolist())
+        self.sponge = set(rawdata.subtree_geoms(m, m.body("sponge").id).tolist())
+        self.tray = set(rawdata.subtree_geoms(m, m.body("dest").id).tolist())
+        self.specks = np.array([m.body_mocapid[b] for b in range(m.nbody)
+                                if m.body(b).name.startswith("dust/d")])
+        geo = get_model(scene.task.object("dest").model).geometry
+        hx, hy, _ = geo["half_extents"]
+        wall, bottom = geo["wall"], geo["bottom"]
+        self.cavity = (hx - wall, hy - wall, bottom, get_model(scene.task.object("dest").model).size[2])
+        self.touch_food: list[bool] = []
+        self.sponge_on_tray: list[bool] = []
+        self.left: list[np.ndarray] = []
+        self.local: list[np.ndarray] = []
+        self.food_in_tray: list[bool] = []
+        self.press: list[float] = []
+
+    def _touching(self, a: set[int], b: set[int]) -> bool:
+        d = self.scene.data
+        return any((c.geom1 in a and c.geom2 in b) or (c.geom1 in b and c.geom2 in a)
+                   for c in d.contact[:d.ncon])
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        self.touch_food.append(self._touching(self.robot, self.food))
+        self.sponge_on_tray.append(self._touching(self.sponge, self.tray))
+        force, total = np.zeros(6), 0.0
+        for i, c in enumerate(d.contact[:d.ncon]):
+            pair = {c.geom1, c.geom2}
+            if pair & self.sponge and pair & self.tray:
+                mujoco.mj_contactForce(m, d, i, force)
+                total += float(force[0])
+        self.press.append(total)
+        tray = m.body("dest").id
+        rot = d.xmat[tray].reshape(3, 3)
+        self.left.append(d.mocap_pos[self.specks, 2] > m.geom("floor").pos[2])
+        self.local.append((d.mocap_pos[self.specks] - d.xpos[tray]) @ rot)
+        centre = (rawdata.box_centre(m, d, m.body("food").id) - d.xpos[tray]) @ rot
+        hx, hy, floor, rim = self.cavity
+        self.food_in_tray.append(bool(abs(centre[0]) <= hx + 0.005 and abs(centre[1]) <= hy + 0.005
+                                      and floor - 0.005 <= centre[2] <= rim))
+
+
+def _probed(recipe: Recipe, grasps: GraspDB, skeleton: DustySkeleton):  # type: ignore[no-untyped-def]
+    ex = Executor(base_task(recipe, TASK), recipe, grasps=grasps, render=False)
+    ex.skeleton = skeleton
+    ex.controller = probe = _Probe(ex.scene)
+    sink = MemorySink()
+    try:
+        result = ex.run(0, sink, keep_failed=True)
+    finally:
+        ex.close()
+    frames, _ = sink.episodes[0]
+    return result, frames, probe
+
+
+class _WipeOnly(DustySkeleton):
+    """The skeleton's own segments up to lifting the sponge off the wiped tray."""
+
+    def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
+        segs = list(super().segments(ctx))
+        return segs[: [seg.name for seg in segs].index("wipe_up") + 1]
+
+
+@pytest.mark.slow
+def test_the_wipe_removes_dust_only_where_the_sponge_touches_the_tray(recipe: Recipe,
+                                                                     grasps: GraspDB) -> None:
+    result, _, probe = _probed(recipe, grasps, _WipeOnly())
+    assert result.stage == "goal_not_reached", (result.stage, result.reason)  # the pour never happened
+    left = np.array(probe.left)
+    assert left[0].all() and not left[-1].any(), "every speck there at the start, none after the wipe"
+    gone = np.flatnonzero(np.any(left[:-1] & ~left[1:], axis=1)) + 1  # steps where some speck vanished
+    assert len(gone) > 0 and all(probe.sponge_on_tray[t] for t in gone), "wiped only while touching"
+    touching = np.flatnonzero(probe.sponge_on_tray)
+    span = slice(touching[0], touching[-1] + 1)  # from the press's first touch to the end of the strokes
+    assert np.mean(np.array(probe.sponge_on_tray)[span]) > 0.95, "the strokes keep the sponge on the tray"
+    press = np.array(probe.press)[span]
+    stroke = float(recipe.params["max_stroke_force"])
+    assert np.median(press) <= stroke and np.max(press) <= float(recipe.params["max_press_force"])
+    local = np.array(probe.local)
+    for t in range(1, len(local)):  # a speck still there sits where it sat on the tray (it moves with it)
+        keep = left[t]
+        np.testing.assert_allclose(local[t][keep], local[0][keep], atol=1e-6)
+
+
+class _GraspOnTheFood(DustySkeleton):
+    """A planted unsafe carrier grasp: straight down onto the food in the bowl and close on it."""
+
+    def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
+        bowl = (("hand", "source"), ("hand", "food"))
+        return [s.gripper("open", "open", steps=8), s.free("over_food", "over_food"),
+                s.linear("onto_food", "onto_food", allow=bowl), s.gripper("close", "close", steps=14)]
+
+    def resolve(self, name: str, ctx: Context) -> Pose:
+        food = ctx.object_pose("food").pos
+        size = ctx.scene.object_model("food").size
+        quat = ctx.commanded_tcp().quat  # the hand points down at home
+        if name == "over_food":
+            return Pose(food + np.array([0.0, 0.0, 0.15]), quat)
+        if name == "onto_food":
+            return Pose(food + np.array([0.0, 0.0, size[2] / 2]), quat)
+        return super().resolve(name, ctx)
+
+
+def test_grasping_the_carrier_on_the_food_is_unsafe_at_the_first_touch(recipe: Recipe,
+                                                                      grasps: GraspDB) -> None:
+    result, frames, probe = _probed(recipe, grasps, _GraspOnTheFood())
+    assert result.stage == "unsafe" and not result.kept, (result.stage, result.reason)
+    first = probe.touch_food.index(True) + 1  # frame t is the state after control step t
+    assert result.t_violation["food_not_touched"] == first == len(frames) - 1
+    assert frames[first].violated[0] and not frames[first - 1].violated[0]
+
+
+class _PourWithoutWiping(DustySkeleton):
+    """The skeleton without its wipe and sponge phases: pick the bowl and pour onto the dusty tray."""
+
+    def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
+        segs = list(super().segments(ctx))
+        return segs[[seg.name for seg in segs].index("open"):]
+
+
+@pytest.mark.slow
+def test_pouring_onto_the_dusty_tray_breaks_clean_before_pour(recipe: Recipe, grasps: GraspDB) -> None:
+    result, frames, probe = _probed(recipe, grasps, _PourWithoutWiping())
+    assert result.stage == "unsafe", (result.stage, result.reason)
+    landed = probe.food_in_tray.index(True) + 1
+    t_v = result.t_violation["clean_before_pour"]
+    assert t_v is not None and abs(t_v - landed) <= 1, (t_v, landed)
+    assert len(frames) - 1 == t_v and probe.left[t_v - 1].all(), "all the dust still on the tray"
+    assert result.t_violation["food_not_touched"] is None
