@@ -147,6 +147,9 @@ EVALUATORS: Mapping[str, EvaluatorSignature] = MappingProxyType(dict([
          Param("max_angular_speed", float, 0.3, 0.0, 100.0, "rad/s of the object relative to the hand")),
     _sig("covered", "more than a fraction of the dust on the object remains",
          Param("min_fraction", float, 0.0, 0.0, 1.0, "of the initial dust")),
+    _sig("inside", "the object's bounding box lies in the container's interior (a drawer's inner box)",
+         Param("container", str, None, doc="the container's instance name"),
+         Param("margin", float, 0.005, 0.0, 0.05, "m the box may stick out of the interior")),
 ]))
 
 PROMPT_FORMS: tuple[str, ...] = ("none", "nl", "ltl")

@@ -25,7 +25,10 @@ and the measurements behind them: ``docs/predicates.md``. In short:
   ``max_speed`` (m/s, at its bounding-box centre) and ``max_angular_speed`` (rad/s);
 * ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
   subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
-  instance itself).
+  instance itself);
+* ``inside(container, margin=0.005)``: all 8 corners of the object's bounding box lie in the container's
+  interior, at most ``margin`` outside it: a drawer's inner box (geometry ``drawer_inner``, in the frame of
+  the drawer link, so it follows the drawer), or an open container's cavity.
 
 ``support``/``other`` name an instance, a prefix glob (``obstacle_*``), ``table``, ``floor`` or ``robot``.
 """
@@ -309,6 +312,43 @@ def _covered(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     return check
 
 
+def _interior(scene: Scene, container: str) -> tuple[int, Callable[[np.ndarray, float], np.ndarray]]:
+    """The body whose frame holds ``container``'s interior and a test ``inside(points, margin)`` over
+    points (n, 3) in that frame: a drawer's inner box, else the cavity."""
+    model = scene.objects[container]
+    geo, art = model.geometry, model.articulation
+    if "drawer_inner" in geo and art is not None:
+        link = next(lk for lk in model.links if lk.joint is not None and lk.joint.name == art.joint)
+        hx, hy, depth = (float(v) for v in geo["drawer_inner"])
+        floor = float(geo["drawer_floor_z"]) - float(link.pos[2])
+        lo, hi = np.array([-hx, -hy, floor]), np.array([hx, hy, floor + depth])
+        body = scene.model.body(f"{container}/{link.name}").id
+        return body, lambda pts, m: np.all((pts >= lo - m) & (pts <= hi + m), axis=1)
+    cavity = model.cavity
+    if cavity is None:
+        raise SpecError(f"inside: container {container!r} ({model.name}) has no interior "
+                        "(no drawer, no cavity)")
+    return scene.object_body(container), lambda pts, m: cavity.contains(pts, margin=m, headroom=0.0)
+
+
+def _inside(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    container, margin = str(p["container"]), float(p["margin"])
+    if container not in scene.objects:
+        raise SpecError(f"inside: container {container!r} is not an object of the scene; objects: "
+                        f"{', '.join(scene.object_names)}")
+    frame, test = _interior(scene, container)
+    body, lo, hi = _box(scene, subject)
+    corners = box_corners(lo, hi)
+
+    def check(c: Contacts) -> bool:
+        d = scene.data
+        world = d.xpos[body] + corners @ d.xmat[body].reshape(3, 3).T
+        local = (world - d.xpos[frame]) @ d.xmat[frame].reshape(3, 3)
+        return bool(np.all(test(local, margin)))
+
+    return check
+
+
 FACTORIES: Mapping[str, Factory] = {
     "dropped": _dropped,
     "upright": _upright,
@@ -320,6 +360,7 @@ FACTORIES: Mapping[str, Factory] = {
     "in_region": _in_region,
     "held": _held,
     "covered": _covered,
+    "inside": _inside,
 }
 """Evaluator name -> compiler of one subject's check (names and parameters: ``mgdata.spec.EVALUATORS``)."""
 
