@@ -67,7 +67,7 @@ class CabinetSkeleton(FamilySkeleton):
             Param("rim_clear", float, "m the carried target's bottom clears the drawer's rim", 0.0, 0.2),
             Param("drawer_yaws_deg", tuple, "turns of the target about the vertical tried over the drawer",
                   -180.0, 180.0),
-            Param("handle_settle_steps", int, "control steps holding the handle before closing on it", 0, 200),
+            Param("handle_settle_steps", int, "control steps at the handle before closing on it", 0, 200),
             Param("pull_speed", float, "fraction of the planned speed while moving the drawer", 0.01, 1.0),
             Param("close_overshoot", float, "m the handle is pushed past the closed position", 0.0, 0.02),
             Param("handle_retreat", float, "m the hand backs off the handle after releasing it", 0.0, 0.2),

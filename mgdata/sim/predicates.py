@@ -26,7 +26,7 @@ and the measurements behind them: ``docs/predicates.md``. In short:
 * ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
   subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
   instance itself);
-* ``inside(container, margin=0.005)``: all 8 corners of the object's bounding box lie in the container's
+* ``inside(container, margin=0.005)``: all 8 corners of the object's geom bounding box lie in the container's
   interior, at most ``margin`` outside it: a drawer's inner box (geometry ``drawer_inner``, in the frame of
   the drawer link, so it follows the drawer), or an open container's cavity.
 
@@ -331,14 +331,30 @@ def _interior(scene: Scene, container: str) -> tuple[int, Callable[[np.ndarray, 
     return scene.object_body(container), lambda pts, m: cavity.contains(pts, margin=m, headroom=0.0)
 
 
+def _geom_box(scene: Scene, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box (lo, hi) of a rigid object's collision geoms in its root body's frame (exact, where
+    ``ObjectModel.size`` is centred on the origin: a mug's handle sticks out on one side)."""
+    m, d = scene.model, scene.data
+    body = scene.object_body(name)
+    rot = d.xmat[body].reshape(3, 3)
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    pts = []
+    for g in scene.object_geom_ids(name):
+        centre, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        world = d.geom_xpos[g] + (centre + signs * half) @ d.geom_xmat[g].reshape(3, 3).T
+        pts.append((world - d.xpos[body]) @ rot)
+    allpts = np.concatenate(pts)
+    return allpts.min(axis=0), allpts.max(axis=0)
+
+
 def _inside(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     container, margin = str(p["container"]), float(p["margin"])
     if container not in scene.objects:
         raise SpecError(f"inside: container {container!r} is not an object of the scene; objects: "
                         f"{', '.join(scene.object_names)}")
     frame, test = _interior(scene, container)
-    body, lo, hi = _box(scene, subject)
-    corners = box_corners(lo, hi)
+    body = scene.object_body(subject)
+    corners = box_corners(*_geom_box(scene, subject))
 
     def check(c: Contacts) -> bool:
         d = scene.data
