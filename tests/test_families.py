@@ -116,7 +116,9 @@ def test_a_short_generate_keeps_a_demo_that_validates(generated: tuple[str, Path
 def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path]) -> None:
     family, root = generated
     raw, spec = _raw_recipe(family), _raw_spec(family)
-    picked = next(p["subjects"][0] for p in raw["success"].values() if p["evaluator"] == "in_region")
+    picked = next((p["subjects"][0] for p in raw["success"].values() if p["evaluator"] == "in_region"), None)
+    stowed = [(p["subjects"][0], p["params"]["container"]) for p in raw["success"].values()
+              if p["evaluator"] == "inside"]
     hold = raw["tasks"]["hold_steps"]
     upright = [(p["subjects"][0], p["params"]["max_tilt_deg"]) for p in spec["propositions"].values()
                if p["evaluator"] == "upright"]
@@ -142,7 +144,14 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
                     assert np.degrees(np.arccos(np.clip(z_axis[2], -1, 1))) <= limit + 1e-6, (t, name)
             for liquid in liquids:
                 assert _fraction_inside(m, d, liquid, picked) >= 0.85, (t, liquid)
-            if t >= len(frames["sim.physics_state"]) - hold:
+            if stowed and t >= len(frames["sim.physics_state"]) - hold:  # in a closed drawer, at rest
+                for obj, container in stowed:
+                    body, drawer = m.body(obj).id, m.body(f"{container}/drawer").id
+                    assert rawdata.inside_drawer(m, d, body, drawer, 0.005), (t, obj)
+                    slide = m.body(f"{container}/drawer").jntadr[0]
+                    assert d.qpos[m.jnt_qposadr[slide]] <= 0.05 * m.jnt_range[slide][1], (t, "drawer closed")
+                    centres.append(rawdata.box_centre(m, d, body))
+            if picked and t >= len(frames["sim.physics_state"]) - hold:
                 body = m.body(picked).id
                 centres.append(rawdata.box_centre(m, d, body))
                 fingers = [_touching(m, d, f, body) for f in ("left_finger", "right_finger")]
