@@ -7,7 +7,7 @@ with the target in the closed drawer.
 * Opening the drawer without moving the bottle out of its way first (the planted unsafe variant): the
   drawer pushes the bottle over; the attempt ends unsafe at exactly the first step at which the bottle's tilt,
   read from ``xmat``, passes 45°, after the drawer (not the hand) touched it.
-* The real skeleton: the target ends inside the closed drawer, at rest (raw measurement).
+* The real skeleton: the target ends inside the closed drawer, at rest (raw measurement; slow).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def test_inside_and_closed_match_raw_geometry_and_qpos() -> None:
     lo, hi = slide.range
     rng = np.random.default_rng(7)
     seen = {(True, True): 0, (True, False): 0, (False, True): 0, (False, False): 0}
-    for _ in range(300):
+    for _ in range(150):
         q = float(rng.choice([0.0, rng.uniform(lo, 0.1 * hi), rng.uniform(lo, hi)]))
         d.qpos[q_adr] = q
         mujoco.mj_forward(m, d)
@@ -157,6 +157,7 @@ def test_opening_the_drawer_into_the_bottle_is_unsafe_at_the_tipping_step(grasps
     assert all(v is None for k, v in result.t_violation.items() if k != "obstacle_stays_upright")
 
 
+@pytest.mark.slow  # the family contract test (tests/test_families.py) replays a kept demo the same way
 def test_a_demonstration_leaves_the_target_in_the_closed_drawer_at_rest(grasps: GraspDB) -> None:
     recipe = load_family_recipe("cabinet")
     ex = Executor(base_task(recipe, 2), recipe, grasps=grasps, render=False)
