@@ -6,9 +6,10 @@ accepts; and, from the dataset alone with nothing but ``mujoco`` and ``pyarrow``
 episode is replayed from its stored physics states and measured: the picked object's bounding-box centre is
 inside the goal sphere over the last ``hold_steps`` frames, both fingers touch it, nothing else supports it,
 it is at rest (a family whose goal is ``inside`` a drawer: the object's geom box inside the drawer's inner
-box rebuilt from the drawer's geoms, the slide's ``qpos`` closed, at rest); at every frame nothing left the table for the floor, every object named by an upright
-constraint stands within its tilt limit, and a liquid stays in its container (particles counted inside the
-container's own bounding box, independently of the ``spilled`` predicate). Finally a planted violation (an
+box rebuilt from the drawer's geoms, the slide's ``qpos`` closed, at rest); at every frame nothing left the
+table for the floor, every object named by an upright constraint stands within its tilt limit, and a liquid
+stays in its container (particles counted inside the container's own bounding box, independently of the
+``spilled`` predicate). Finally a planted violation (an
 object teleported onto the floor at step 30) is caught at exactly that step.
 """
 
