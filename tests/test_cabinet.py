@@ -23,6 +23,7 @@ from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
+from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import AllowedContacts
 from mgdata.paths import grasps_dir
@@ -32,6 +33,8 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.predicates import Contacts, compile_check
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import EVALUATORS
+from mgdata.tasks.base import draw_task
+from mgdata.tasks.layout_rules import parse_layout
 from skeletons.cabinet import CabinetSkeleton
 
 SLACK = 0.005  # the predicate's default margin
@@ -172,3 +175,20 @@ def test_a_demonstration_leaves_the_target_in_the_closed_drawer_at_rest(grasps: 
         assert np.linalg.norm(d.cvel[target][3:]) < 0.005 and d.xmat[target][8] > np.cos(np.radians(10))
     finally:
         ex.close()
+
+
+def test_the_fixed_yaw_rule_turns_every_cabinet_front_to_the_robots_minus_y() -> None:
+    recipe = load_family_recipe("cabinet")
+    for k in range(3):
+        scene = build_scene(draw_task(recipe, k))
+        front = scene.data.xmat[scene.model.body("cabinet").id].reshape(3, 3)[:, 0]  # the cabinet's +X
+        assert np.degrees(np.arccos(np.clip(front @ np.array([0.0, -1.0, 0.0]), -1, 1))) <= 3.0 + 1e-6, k
+
+
+@pytest.mark.parametrize("yaw", [{"rule": "uniform", "deg": 10.0}, {"rule": "fixed"},
+                                 {"rule": "fixed", "deg": 200.0}])
+def test_a_bad_fixed_yaw_is_a_recipe_error(yaw: dict) -> None:
+    raw = {"roles": {"cabinet": {"models": ["cabinet/*"], "region": {"x": [0.5, 0.6], "y": [0.4, 0.5]},
+                                 "yaw": yaw}}}
+    with pytest.raises(RecipeError, match="yaw"):
+        parse_layout(raw, "recipes/x.toml: [layout]")
