@@ -264,7 +264,7 @@ class CabinetSkeleton(FamilySkeleton):
 
     # -- putting things down ---------------------------------------------------------------------------------
     def _held(self, ctx: Context, obj: str) -> tuple[Pose, Attachment]:
-        """The held object's pose in the TCP frame (from the commanded TCP) and its attachment."""
+        """The held object's pose in the TCP frame (both measured now) and its attachment for the planner."""
         tcp_t_obj = ctx.tcp_pose().inverse() @ ctx.object_pose(obj)
         return tcp_t_obj, Attachment(obj, tcp_t_obj.matrix())
 

@@ -30,7 +30,7 @@ def test_evaluator_signatures_are_the_contract() -> None:
         "spilled": {"container": None, "max_fraction": 0.15},
         "in_region": {"region": "goal", "mode": "centre", "min_fraction": 0.5},
         "held": {"gap_tol": 0.0005, "max_speed": 0.02, "max_angular_speed": 0.3},
-        "covered": {"min_fraction": 0.0},
+        "covered": {"min_fraction": 0.0}, "inside": {"container": None, "margin": 0.005},
     }
 
 
