@@ -174,12 +174,16 @@ class CabinetSkeleton(FamilySkeleton):
                                                         float(ctx.param("sweep_margin")))]
 
     def _near_sweep(self, ctx: Context, xy: np.ndarray, radius: float, margin: float) -> bool:
+        return self._sweep_gap(ctx, xy) < radius + margin
+
+    def _sweep_gap(self, ctx: Context, xy: np.ndarray) -> float:
+        """Distance (m) from the world point ``xy`` to the sweep's box (0 inside it)."""
         cab, _ = self._cabinet(ctx)
         rot = cab.rotation()[:2, :2]
         local = rot.T @ (np.asarray(xy) - cab.pos[:2])
         lo, hi = self.sweep(ctx)
         gap = np.maximum(np.maximum(lo - local, local - hi), 0.0)
-        return float(np.hypot(*gap)) < radius + margin
+        return float(np.hypot(*gap))
 
     # -- runtime targets -------------------------------------------------------------------------------------
     def resolve(self, name: str, ctx: Context) -> Pose:
@@ -285,7 +289,10 @@ class CabinetSkeleton(FamilySkeleton):
                  and not self._near_sweep(ctx, p, radius, float(ctx.param("sweep_margin")))]
         if not spots:
             raise AttemptFailed("target_fail", f"no free spot for {role} in clear_region outside the sweep")
-        start = int(ctx.variation["clear_pick"] * len(spots)) % len(spots)
+        # farthest from the drawer first (the arm pulls the drawer open next to it), the draw picks among
+        # the farthest third
+        spots.sort(key=lambda p: -self._sweep_gap(ctx, p))
+        start = int(ctx.variation["clear_pick"] * max(1, len(spots) // 3)) % len(spots)
         tcp_t_obj, held = self._held(ctx, role)
         obj = ctx.object_pose(role)
         upright = Pose(np.zeros(3), self._yaw_only(obj.quat))
@@ -301,7 +308,8 @@ class CabinetSkeleton(FamilySkeleton):
                 q_above = ctx.planner.ik(above, ctx.q_cmd, rng, collision_free=True, attached=held)
                 put = ctx.planner.line(q_above, down, rng, allowed=AllowedContacts(((role, "table"),)),
                                        attached=held)
-                ctx.planner.line(put.q[-1], back, rng, allowed=AllowedContacts((("hand", role),)))
+                # (the planner's copy of the object is still in the hand, not on the spot: leave it out)
+                ctx.planner.line(put.q[-1], back, rng, allowed=AllowedContacts(((ROOT_BODY, role),)))
             except MotionFailure:
                 continue
             ctx.memo[key] = (above, down)
