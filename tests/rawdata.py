@@ -58,3 +58,27 @@ def box_centre(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> np.ndarray:
     """World position of the centre of :func:`local_box`."""
     lo, hi = local_box(m, d, body)
     return d.xpos[body] + d.xmat[body].reshape(3, 3) @ ((lo + hi) / 2.0)
+
+
+def drawer_interior(m: mujoco.MjModel, body: int) -> tuple[np.ndarray, np.ndarray]:
+    """The inner box (min, max) of an open box body (a drawer: geoms ``…bottom``, ``…wall_px/nx/py/ny``), in
+    the body's frame, from the geoms' own positions and half sizes: above the bottom, between the walls'
+    inner faces, up to the walls' top."""
+    geoms = {m.geom(g).name.rsplit("_", 2)[-1] if "wall" not in m.geom(g).name else m.geom(g).name[-2:]: g
+             for g in np.flatnonzero(m.geom_bodyid == body)}
+    pos, size = m.geom_pos, m.geom_size
+    bottom, px, nx, py, ny = (geoms[k] for k in ("bottom", "px", "nx", "py", "ny"))
+    lo = np.array([pos[nx][0] + size[nx][0], pos[ny][1] + size[ny][1], pos[bottom][2] + size[bottom][2]])
+    hi = np.array([pos[px][0] - size[px][0], pos[py][1] - size[py][1], pos[px][2] + size[px][2]])
+    return lo, hi
+
+
+def inside_drawer(m: mujoco.MjModel, d: mujoco.MjData, obj: int, drawer: int, slack: float) -> bool:
+    """Every corner of ``obj``'s geom bounding box (:func:`local_box`) lies in the drawer's inner box, at most
+    ``slack`` m outside it."""
+    lo, hi = local_box(m, d, obj)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    world = d.xpos[obj] + corners @ d.xmat[obj].reshape(3, 3).T
+    local = (world - d.xpos[drawer]) @ d.xmat[drawer].reshape(3, 3)
+    ilo, ihi = drawer_interior(m, drawer)
+    return bool(np.all((local >= ilo - slack) & (local <= ihi + slack)))

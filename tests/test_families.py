@@ -5,13 +5,14 @@ default, all with ``-m slow``); a short ``mgdata generate`` keeps a demonstratio
 accepts; and, from the dataset alone with nothing but ``mujoco`` and ``pyarrow`` (no mgdata code), every kept
 episode is replayed from its stored physics states and measured: the picked object's bounding-box centre is
 inside the goal sphere over the last ``hold_steps`` frames, both fingers touch it, nothing else supports it,
-it is at rest (a family whose goal puts an object ``inside`` a container instead, dusty: that object's box
-centre is inside the container's own bounding box, at rest, and no dust speck is left); at every frame
-nothing left the table for the floor, every object named by an upright constraint stands within its tilt
-limit, and a liquid stays in its container (particles counted inside the container's own bounding box,
-independently of the ``spilled`` predicate); a lid named by a ``seated`` success proposition sits in its
-container's mouth on the last frames. Finally a planted violation (an object teleported onto the floor at
-step 30) is caught at exactly that step.
+it is at rest (a family whose goal puts an object ``inside`` a container instead: in a drawer, cabinet, the
+object's geom box inside the drawer's inner box rebuilt from the drawer's geoms and the slide's ``qpos``
+closed; otherwise, dusty, the object's box centre inside the container's own bounding box and no dust speck
+left; at rest); at every frame nothing left the table for the floor, every object named by an upright
+constraint stands within its tilt limit, and a liquid stays in its container (particles counted inside the
+container's own bounding box, independently of the ``spilled`` predicate); a lid named by a ``seated``
+success proposition sits in its container's mouth on the last frames. Finally a planted violation (an object
+teleported onto the floor at step 30) is caught at exactly that step.
 """
 
 from __future__ import annotations
@@ -157,8 +158,16 @@ def test_kept_demos_are_physically_what_the_gate_says(generated: tuple[str, Path
                 goal = m.geom("goal")
                 assert np.linalg.norm(centres[-1] - d.geom_xpos[goal.id]) < m.geom_size[goal.id][0], t
             if t >= len(frames["sim.physics_state"]) - hold and inside:
-                for obj, container in inside:  # its box centre inside the container's own bounding box
-                    body, host = m.body(obj).id, m.body(container).id
+                for obj, container in inside:
+                    body = m.body(obj).id
+                    if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{container}/drawer") >= 0:
+                        drawer = m.body(f"{container}/drawer")  # in a closed drawer
+                        assert rawdata.inside_drawer(m, d, body, drawer.id, 0.005), (t, obj)
+                        slide = drawer.jntadr[0]
+                        assert d.qpos[m.jnt_qposadr[slide]] <= 0.05 * m.jnt_range[slide][1], (t, "closed")
+                        centres.append(rawdata.box_centre(m, d, body))
+                        continue
+                    host = m.body(container).id  # its box centre inside the container's own bounding box
                     lo, hi = rawdata.local_box(m, d, host)
                     local = (rawdata.box_centre(m, d, body) - d.xpos[host]) @ d.xmat[host].reshape(3, 3)
                     assert np.all((local >= lo) & (local <= hi)), (t, obj, "inside", container)

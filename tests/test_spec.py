@@ -33,7 +33,8 @@ def test_evaluator_signatures_are_the_contract() -> None:
         "covered": {"min_fraction": 0.0},
         "seated": {"support": None, "max_offset": 0.004, "max_gap": 0.003, "max_tilt_deg": 8.0},
         "clean": {"max_fraction": 0.0},
-        "inside": {"container": None, "margin": 0.005, "headroom": 0.0}, "near_start": {"max_distance": None},
+        "inside": {"container": None, "mode": "contained", "margin": 0.005, "headroom": 0.0},
+        "near_start": {"max_distance": None},
     }
 
 

@@ -78,12 +78,17 @@ class PickAndCarry:
         grasp_filter: approach hints allowed (``("side",)`` for side grasps only); empty = any.
         level: carry in a straight line at the lift height, the object upright all the way (only turned
             about the vertical), instead of a free joint-space path (liquids).
+        tag: prefix of its segment names, runtime-target names, memo keys and gate facts, so that one
+            demonstration can pick several objects (``PickAndCarry("obstacle", tag="obstacle/")`` has the
+            segments ``obstacle/open`` …, the targets ``obstacle/grasp`` … and the gate fact
+            ``obstacle/grasps``); empty for the object a family mainly picks.
     """
 
     obj: str
     riders: tuple[str, ...] = ()
     grasp_filter: tuple[str, ...] = ()
     level: bool = False
+    tag: str = ""
 
     # -- segments --------------------------------------------------------------------------------------------
     def segments(self, ctx: Context) -> list[s.MotionSegment]:
@@ -95,13 +100,14 @@ class PickAndCarry:
         p = ctx.params
         self.choose_grasp(ctx)
         touch = (("hand", self.obj),)
+        t = self.tag
         return [
-            s.gripper("open", "open", steps=int(p["open_steps"])),
-            s.free("pre_grasp", "pre_grasp", riders=self.riders),
-            s.linear("approach", "grasp", allow=touch, riders=self.riders),
-            s.hold("grasp_settle", steps=int(p["grasp_settle_steps"])),
-            s.gripper("close", "close", steps=int(p["close_steps"])),
-            s.linear("lift", "lift", gripper="close", attached=self.obj, riders=self.riders,
+            s.gripper(f"{t}open", "open", steps=int(p["open_steps"])),
+            s.free(f"{t}pre_grasp", f"{t}pre_grasp", riders=self.riders),
+            s.linear(f"{t}approach", f"{t}grasp", allow=touch, riders=self.riders),
+            s.hold(f"{t}grasp_settle", steps=int(p["grasp_settle_steps"])),
+            s.gripper(f"{t}close", "close", steps=int(p["close_steps"])),
+            s.linear(f"{t}lift", f"{t}lift", gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
         ]
 
@@ -121,16 +127,21 @@ class PickAndCarry:
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
         """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
         above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
+        t = self.tag
         return [
-            s.linear("place", target, gripper="close", attached=self.obj, riders=self.riders,
+            s.linear(f"{t}place", target, gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
-            s.gripper("release", "open", steps=retreat_steps),
-            s.linear("retreat", "retreat", allow=(("hand", self.obj),), riders=self.riders),
+            s.gripper(f"{t}release", "open", steps=retreat_steps),
+            s.linear(f"{t}retreat", f"{t}retreat", allow=(("hand", self.obj),), riders=self.riders),
         ]
 
     # -- runtime targets -------------------------------------------------------------------------------------
     def resolve(self, name: str, ctx: Context) -> Pose | None:
-        """The TCP pose of runtime target ``name`` (one of :data:`TARGETS`), or None if it is not one."""
+        """The TCP pose of runtime target ``name`` (one of :data:`TARGETS`, after ``tag``), or None if it is
+        not one."""
+        if not name.startswith(self.tag):
+            return None
+        name = name[len(self.tag):]
         if name in ("pre_grasp", "grasp"):
             grasp = self._grasp_pose(ctx)
             if name == "grasp":
@@ -140,8 +151,8 @@ class PickAndCarry:
             tcp = ctx.commanded_tcp()
             return Pose(tcp.pos + np.array([0.0, 0.0, self._lift(ctx)]), tcp.quat)
         if name in ("over_goal", "goal"):
-            goal = ctx.memo.get("goal_tcp") or self._goal_target(ctx)
-            ctx.memo["goal_tcp"] = goal
+            goal = ctx.memo.get(f"{self.tag}goal_tcp") or self._goal_target(ctx)
+            ctx.memo[f"{self.tag}goal_tcp"] = goal
             if name == "goal":
                 return goal
             tcp = ctx.commanded_tcp()
@@ -162,7 +173,7 @@ class PickAndCarry:
                    f"{model} has no valid grasps: run `mgdata grasps generate` then `mgdata grasps validate`")
             raise AttemptFailed("no_grasp", why)
         grasp = reachable[ctx.variation.pick(len(reachable))]
-        ctx.memo["grasp"], ctx.memo["grasp_id"] = grasp, grasp.id
+        ctx.memo[f"{self.tag}grasp"], ctx.memo[f"{self.tag}grasp_id"] = grasp, grasp.id
         return grasp
 
     def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
@@ -203,18 +214,18 @@ class PickAndCarry:
         if len(reachable) < max(min_grasps, 1):
             raise Infeasible("reach.grasps", f"{len(reachable)} of the {len(ctx.grasps.get(self.obj, ()))} "
                                              f"valid grasps of {self.obj} are reachable (needs {min_grasps})")
-        ctx.memo["grasp"] = reachable[0]
+        ctx.memo[f"{self.tag}grasp"] = reachable[0]
         grasp_tcp = self._grasp_pose(ctx)
         obj = ctx.object_pose(self.obj)
         if self._goal_target(ctx, tcp=grasp_tcp, obj=obj, strict=True) is None:
             raise Infeasible("reach.goal", f"no turn of {self.obj} about the vertical "
                                            f"({list(ctx.param('carry_yaws_deg'))} deg) reaches the goal")
-        return {"grasps": tuple(g.id for g in reachable)}
+        return {f"{self.tag}grasps": tuple(g.id for g in reachable)}
 
     def _reachable(self, ctx: Context) -> tuple[Grasp, ...]:
-        ids = ctx.task.gate.get("grasps")
+        ids = ctx.task.gate.get(f"{self.tag}grasps")
         if ids is None:
-            key = f"reachable/{self.obj}"
+            key = f"{self.tag}reachable/{self.obj}"
             if key not in ctx.memo:
                 ctx.memo[key] = self.reachable_grasps(ctx)
             return ctx.memo[key]
@@ -222,7 +233,7 @@ class PickAndCarry:
         return tuple(by_id[i] for i in ids if i in by_id)
 
     def _grasp_pose(self, ctx: Context) -> Pose:
-        grasp: Grasp = ctx.memo["grasp"]
+        grasp: Grasp = ctx.memo[f"{self.tag}grasp"]
         local = grasp.matrix()
         local[2, 3] += ctx.variation["grasp_height"]
         return Pose.from_matrix(ctx.object_pose(self.obj).matrix() @ local)

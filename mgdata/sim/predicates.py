@@ -30,8 +30,11 @@ and the measurements behind them: ``docs/predicates.md``. In short:
 * ``covered(min_fraction=0.0)``: more than ``min_fraction`` of the dust specks on the object remain (the
   subject is the dusty object, e.g. a plate, whose footprint held the dust patches at build time; or a dust
   instance itself); ``clean(max_fraction=0.0)``: its complement (at most that fraction remains);
-* ``inside(container, margin=0.005, headroom=0.0)``: the centre of the object's bounding box lies in the
-  container's cavity (``Cavity.contains``, in the container's frame: it moves and tilts with it);
+* ``inside(container, mode="contained", margin=0.005, headroom=0.0)``: the object is in the container's
+  interior, in the frame that holds it (so it follows a drawer, or a tilted container): a drawer's inner box
+  (geometry ``drawer_inner``, in the frame of the drawer link) or an open container's cavity
+  (``Cavity.contains``). ``mode="contained"``: all 8 corners of the object's geom bounding box, at most
+  ``margin`` outside sideways/below and ``headroom`` above the rim; ``mode="centre"``: the box's centre only;
 * ``near_start(max_distance)``: the object's origin is less than ``max_distance`` from its placement.
 
 ``support``/``other`` name an instance, a prefix glob (``obstacle_*``), ``table``, ``floor`` or ``robot``.
@@ -339,19 +342,59 @@ def _clean(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
     return lambda c: not covered(c)
 
 
-def _inside(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
-    container = str(p["container"])
-    cavity = scene.object_model(container).cavity
+Interior = Callable[[np.ndarray, float, float], np.ndarray]
+
+
+def _interior(scene: Scene, container: str) -> tuple[int, Interior]:
+    """The body whose frame holds ``container``'s interior and a test ``inside(points, margin, headroom)``
+    over points (n, 3) in that frame: a drawer's inner box, else the cavity."""
+    model = scene.objects[container]
+    geo, art = model.geometry, model.articulation
+    if "drawer_inner" in geo and art is not None:
+        link = next(lk for lk in model.links if lk.joint is not None and lk.joint.name == art.joint)
+        hx, hy, depth = (float(v) for v in geo["drawer_inner"])
+        floor = float(geo["drawer_floor_z"]) - float(link.pos[2])
+        lo, hi = np.array([-hx, -hy, floor]), np.array([hx, hy, floor + depth])
+        body = scene.model.body(f"{container}/{link.name}").id
+        return body, lambda pts, m, h: np.all((pts >= lo - m) & (pts <= hi + np.array([m, m, h])), axis=1)
+    cavity = model.cavity
     if cavity is None:
-        raise SpecError(f"inside: container {container!r} ({scene.objects[container].name}) has no cavity")
-    host, (body, lo, hi) = scene.object_body(container), _box(scene, subject)
-    centre, margin, headroom = (lo + hi) / 2.0, float(p["margin"]), float(p["headroom"])
+        raise SpecError(f"inside: container {container!r} ({model.name}) has no interior "
+                        "(no drawer, no cavity)")
+    return scene.object_body(container), lambda pts, m, h: cavity.contains(pts, margin=m, headroom=h)
+
+
+def _geom_box(scene: Scene, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box (lo, hi) of a rigid object's collision geoms in its root body's frame (exact, where
+    ``ObjectModel.size`` is centred on the origin: a mug's handle sticks out on one side)."""
+    m, d = scene.model, scene.data
+    body = scene.object_body(name)
+    rot = d.xmat[body].reshape(3, 3)
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    pts = []
+    for g in scene.object_geom_ids(name):
+        centre, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        world = d.geom_xpos[g] + (centre + signs * half) @ d.geom_xmat[g].reshape(3, 3).T
+        pts.append((world - d.xpos[body]) @ rot)
+    allpts = np.concatenate(pts)
+    return allpts.min(axis=0), allpts.max(axis=0)
+
+
+def _inside(scene: Scene, subject: str, p: Mapping[str, Any]) -> Check:
+    container, margin, headroom = str(p["container"]), float(p["margin"]), float(p["headroom"])
+    if container not in scene.objects:
+        raise SpecError(f"inside: container {container!r} is not an object of the scene; objects: "
+                        f"{', '.join(scene.object_names)}")
+    frame, test = _interior(scene, container)
+    body = scene.object_body(subject)
+    lo, hi = _geom_box(scene, subject)
+    points = box_corners(lo, hi) if p["mode"] == "contained" else ((lo + hi) / 2.0)[None, :]
 
     def check(c: Contacts) -> bool:
         d = scene.data
-        point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ centre
-        local = (point - d.xpos[host]) @ d.xmat[host].reshape(3, 3)
-        return bool(cavity.contains(local[None, :], margin=margin, headroom=headroom)[0])
+        world = d.xpos[body] + points @ d.xmat[body].reshape(3, 3).T
+        local = (world - d.xpos[frame]) @ d.xmat[frame].reshape(3, 3)
+        return bool(np.all(test(local, margin, headroom)))
 
     return check
 

@@ -15,7 +15,8 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     # inside = "jar"                     # in the host's cavity (only models that fit are drawn)
     # on = "board"                       # standing on the host's top
     yaw = { rule = "uniform" }           # "away" (object +X away from the robot), "toward", "uniform",
-                                         # "aligned" (the host's yaw); jitter_deg = ±jitter
+                                         # "aligned" (the host's yaw), "fixed" (deg = world yaw);
+                                         # jitter_deg = ±jitter
     clearance = 0.01                     # m between this object's footprint and every other one
     open = 1.0                           # articulation opening fraction (0 closed … 1 open)
     model_of = { role = "container", key = "lid" }   # the model named by an earlier role's model's
@@ -49,16 +50,18 @@ from typing import Any
 from mgdata.errors import RecipeError
 
 PLACEMENTS: tuple[str, ...] = ("region", "near", "inside", "on")
-YAW_RULES: tuple[str, ...] = ("away", "toward", "uniform", "aligned")
+YAW_RULES: tuple[str, ...] = ("away", "toward", "uniform", "aligned", "fixed")
 Range = tuple[float, float]
 
 
 @dataclass(frozen=True)
 class Yaw:
-    """How a role's yaw is drawn: ``rule`` (see :data:`YAW_RULES`) give or take ``jitter_deg``."""
+    """How a role's yaw is drawn: ``rule`` (see :data:`YAW_RULES`) give or take ``jitter_deg``; ``fixed``:
+    ``deg`` about world +Z (0 = object +X along the robot's +X)."""
 
     rule: str = "uniform"
     jitter_deg: float = 0.0
+    deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -249,13 +252,16 @@ def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
 def _yaw(raw: Any, where: str, host: str | None) -> Yaw:
     if not isinstance(raw, Mapping):
         raise RecipeError(f"{where}: expected a table {{ rule = ..., jitter_deg = ... }}")
-    _known(raw, ("rule", "jitter_deg"), where)
+    _known(raw, ("rule", "jitter_deg", "deg"), where)
     rule = raw.get("rule", "uniform")
     if rule not in YAW_RULES:
         raise RecipeError(f"{where} rule = {rule!r}: expected one of {', '.join(YAW_RULES)}")
     if rule == "aligned" and host is None:
         raise RecipeError(f"{where}: rule 'aligned' needs a host (near, inside or on)")
-    return Yaw(rule, _number(raw.get("jitter_deg", 0.0), f"{where} jitter_deg", 0.0, 180.0))
+    if ("deg" in raw) != (rule == "fixed"):
+        raise RecipeError(f"{where}: deg = ... goes with rule 'fixed' (and only with it)")
+    return Yaw(rule, _number(raw.get("jitter_deg", 0.0), f"{where} jitter_deg", 0.0, 180.0),
+               _number(raw.get("deg", 0.0), f"{where} deg", -180.0, 180.0))
 
 
 def _region(raw: Any, where: str) -> tuple[Range, Range]:

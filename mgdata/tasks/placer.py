@@ -231,7 +231,7 @@ def _yaw(role: Role, pos: tuple[float, float, float], host: ObjectPlacement | No
          rng: np.random.Generator) -> float:
     away = math.atan2(pos[1], pos[0])
     jitter = math.radians(role.yaw.jitter_deg)
-    base = {"away": away, "toward": away + math.pi,
+    base = {"away": away, "toward": away + math.pi, "fixed": math.radians(role.yaw.deg),
             "aligned": host.yaw if host is not None else 0.0}.get(role.yaw.rule)
     if base is None:  # uniform
         return float(rng.uniform(-math.pi, math.pi))
