@@ -78,12 +78,22 @@ class PickAndCarry:
         grasp_filter: approach hints allowed (``("side",)`` for side grasps only); empty = any.
         level: carry in a straight line at the lift height, the object upright all the way (only turned
             about the vertical), instead of a free joint-space path (liquids).
+        tag: when one skeleton picks several objects: the prefix of this pick's segment and runtime-target
+            names (``tag="s0"``: segment ``s0_close``, target ``s0_grasp``) and of its attempt memo; its
+            reachable grasps are then searched from the live state when its pick starts (the initial-state
+            gate's grasp ids belong to the untagged pick), and the episode's grasp id stays the untagged
+            pick's.
     """
 
     obj: str
     riders: tuple[str, ...] = ()
     grasp_filter: tuple[str, ...] = ()
     level: bool = False
+    tag: str = ""
+
+    def name(self, base: str) -> str:
+        """The segment or runtime-target name ``base`` of this pick (prefixed by ``tag``)."""
+        return f"{self.tag}_{base}" if self.tag else base
 
     # -- segments --------------------------------------------------------------------------------------------
     def segments(self, ctx: Context) -> list[s.MotionSegment]:
@@ -93,15 +103,17 @@ class PickAndCarry:
     def pick_segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Open, pre-grasp, approach, settle, close, lift to clearance."""
         p = ctx.params
-        self.choose_grasp(ctx)
+        if not self.tag:
+            self.choose_grasp(ctx)
         touch = (("hand", self.obj),)
+        n = self.name
         return [
-            s.gripper("open", "open", steps=int(p["open_steps"])),
-            s.free("pre_grasp", "pre_grasp", riders=self.riders),
-            s.linear("approach", "grasp", allow=touch, riders=self.riders),
-            s.hold("grasp_settle", steps=int(p["grasp_settle_steps"])),
-            s.gripper("close", "close", steps=int(p["close_steps"])),
-            s.linear("lift", "lift", gripper="close", attached=self.obj, riders=self.riders,
+            s.gripper(n("open"), "open", steps=int(p["open_steps"])),
+            s.free(n("pre_grasp"), n("pre_grasp"), riders=self.riders),
+            s.linear(n("approach"), n("grasp"), allow=touch, riders=self.riders),
+            s.hold(n("grasp_settle"), steps=int(p["grasp_settle_steps"])),
+            s.gripper(n("close"), "close", steps=int(p["close_steps"])),
+            s.linear(n("lift"), n("lift"), gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
         ]
 
@@ -121,16 +133,24 @@ class PickAndCarry:
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
         """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
         above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
+        n = self.name
         return [
-            s.linear("place", target, gripper="close", attached=self.obj, riders=self.riders,
+            s.linear(n("place"), target, gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
-            s.gripper("release", "open", steps=retreat_steps),
-            s.linear("retreat", "retreat", allow=(("hand", self.obj),), riders=self.riders),
+            s.gripper(n("release"), "open", steps=retreat_steps),
+            s.linear(n("retreat"), n("retreat"), allow=(("hand", self.obj),), riders=self.riders),
         ]
 
     # -- runtime targets -------------------------------------------------------------------------------------
     def resolve(self, name: str, ctx: Context) -> Pose | None:
-        """The TCP pose of runtime target ``name`` (one of :data:`TARGETS`), or None if it is not one."""
+        """The TCP pose of runtime target ``name`` (one of :data:`TARGETS`, prefixed by ``tag``), or None if
+        it is not one."""
+        if self.tag:
+            if not name.startswith(f"{self.tag}_"):
+                return None
+            name = name[len(self.tag) + 1:]
+            if name == "pre_grasp":
+                self.choose_grasp(ctx)
         if name in ("pre_grasp", "grasp"):
             grasp = self._grasp_pose(ctx)
             if name == "grasp":
@@ -140,8 +160,8 @@ class PickAndCarry:
             tcp = ctx.commanded_tcp()
             return Pose(tcp.pos + np.array([0.0, 0.0, self._lift(ctx)]), tcp.quat)
         if name in ("over_goal", "goal"):
-            goal = ctx.memo.get("goal_tcp") or self._goal_target(ctx)
-            ctx.memo["goal_tcp"] = goal
+            goal = ctx.memo.get(self.name("goal_tcp")) or self._goal_target(ctx)
+            ctx.memo[self.name("goal_tcp")] = goal
             if name == "goal":
                 return goal
             tcp = ctx.commanded_tcp()
@@ -162,7 +182,9 @@ class PickAndCarry:
                    f"{model} has no valid grasps: run `mgdata grasps generate` then `mgdata grasps validate`")
             raise AttemptFailed("no_grasp", why)
         grasp = reachable[ctx.variation.pick(len(reachable))]
-        ctx.memo["grasp"], ctx.memo["grasp_id"] = grasp, grasp.id
+        ctx.memo[self.name("grasp")] = grasp
+        if not self.tag:
+            ctx.memo["grasp_id"] = grasp.id
         return grasp
 
     def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
@@ -203,7 +225,7 @@ class PickAndCarry:
         if len(reachable) < max(min_grasps, 1):
             raise Infeasible("reach.grasps", f"{len(reachable)} of the {len(ctx.grasps.get(self.obj, ()))} "
                                              f"valid grasps of {self.obj} are reachable (needs {min_grasps})")
-        ctx.memo["grasp"] = reachable[0]
+        ctx.memo[self.name("grasp")] = reachable[0]
         grasp_tcp = self._grasp_pose(ctx)
         obj = ctx.object_pose(self.obj)
         if self._goal_target(ctx, tcp=grasp_tcp, obj=obj, strict=True) is None:
@@ -212,9 +234,9 @@ class PickAndCarry:
         return {"grasps": tuple(g.id for g in reachable)}
 
     def _reachable(self, ctx: Context) -> tuple[Grasp, ...]:
-        ids = ctx.task.gate.get("grasps")
+        ids = None if self.tag else ctx.task.gate.get("grasps")
         if ids is None:
-            key = f"reachable/{self.obj}"
+            key = f"reachable/{self.name(self.obj)}"
             if key not in ctx.memo:
                 ctx.memo[key] = self.reachable_grasps(ctx)
             return ctx.memo[key]
@@ -222,7 +244,7 @@ class PickAndCarry:
         return tuple(by_id[i] for i in ids if i in by_id)
 
     def _grasp_pose(self, ctx: Context) -> Pose:
-        grasp: Grasp = ctx.memo["grasp"]
+        grasp: Grasp = ctx.memo[self.name("grasp")]
         local = grasp.matrix()
         local[2, 3] += ctx.variation["grasp_height"]
         return Pose.from_matrix(ctx.object_pose(self.obj).matrix() @ local)

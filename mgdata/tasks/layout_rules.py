@@ -13,11 +13,13 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     region = { x = [0.45, 0.60], y = [-0.12, 0.12] }   # robot base frame (m); or:
     # near = "jar", distance = [0.10, 0.20], bearing_deg = [-180, 180]   (0 = away from the robot)
     # inside = "jar"                     # in the host's cavity (only models that fit are drawn)
-    # on = "board"                       # standing on the host's top
+    # on = "board"                       # standing on the host's top; with count > 1 a stack: instance 0
+                                         # on the host, each next one on the one before
     yaw = { rule = "uniform" }           # "away" (object +X away from the robot), "toward", "uniform",
                                          # "aligned" (the host's yaw); jitter_deg = ±jitter
     clearance = 0.01                     # m between this object's footprint and every other one
     open = 1.0                           # articulation opening fraction (0 closed … 1 open)
+    same_model = false                   # true: every instance of the role is one model (drawn once)
 
     [layout.goal]
     from = "target"                      # the goal centre is `distance` from this role, any bearing
@@ -76,6 +78,7 @@ class Role:
         clearance: m between footprints (``inside`` objects have none; ``inside`` uses it as the room
             left around and above the object in the cavity).
         open: articulation opening fraction, if the model has one.
+        same_model: every instance is the model drawn for the first one (a stack of identical objects).
     """
 
     name: str
@@ -89,6 +92,7 @@ class Role:
     yaw: Yaw = Yaw()
     clearance: float = 0.0
     open: float | None = None
+    same_model: bool = False
 
 
 @dataclass(frozen=True)
@@ -157,8 +161,8 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
         raise RecipeError(f"{where}: expected a table")
     if not name.isidentifier():
         raise RecipeError(f"{where}: a role name must be an identifier (letters, digits, _)")
-    _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open"),
-           where)
+    _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open",
+                   "same_model"), where)
     models = table.get("models")
     if isinstance(models, str):
         models = [models]
@@ -196,8 +200,11 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     clearance = _number(table.get("clearance", 0.0), f"{where} clearance", 0.0, 0.5)
     opened = table.get("open")
     opened = None if opened is None else _number(opened, f"{where} open", 0.0, 1.0)
+    same = table.get("same_model", False)
+    if not isinstance(same, bool):
+        raise RecipeError(f"{where} same_model = {same!r}: expected true or false")
     return Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
-                bearing, yaw, clearance, opened)
+                bearing, yaw, clearance, opened, same)
 
 
 def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
