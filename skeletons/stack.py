@@ -9,8 +9,9 @@ target may fall or tip past 30° (the spec).
 
 The pile's spot is chosen from the live scene when the attempt starts (and checked by the initial-state gate):
 spots on rings around the target ``pile_gap`` and more beyond the pack's footprint, at ``pile_bearings``
-bearings, inside the ``pile_x`` × ``pile_y`` region (robot base frame, m), clear of every other object and of
-the goal, where a straight-down hand reaches the pile's final height (IK, collision-free). Among those on the
+bearings (those beside the pack, as seen from the robot, before those in front of or behind it), inside the ``pile_x`` × ``pile_y`` region (robot base frame, m), clear of every other object and of
+the goal, where a straight-down hand reaches both the first object's place and the pile's final height plus the
+pre-grasp standoff (IK, collision-free, the pack still standing). Among those on the
 nearest ring the attempt's draw picks one. No spot is listed per task.
 
 Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
@@ -188,8 +189,10 @@ class StackSkeleton(FamilySkeleton):
         others = [(ctx.object_pose(n).pos[:2], footprint_radius(ctx.task.object(n).model))
                   for n in _objects(ctx) if n not in (TARGET, *stack)]
         r_carry = footprint_radius(ctx.task.object(TARGET).model)
-        height = sum(scene.object_model(n).size[2] for n in stack) + TABLE_TOP_Z
+        height = sum(scene.object_model(n).size[2] for n in stack) + TABLE_TOP_Z + float(
+            ctx.param("reach_standoff"))
         n_bear = int(ctx.param("pile_bearings"))
+        radial = target_xy / max(float(np.linalg.norm(target_xy)), 1e-9)  # away from the robot's base
         for ring in range(int(ctx.param("pile_rings"))):
             d = r_pack + r_pile + gap + ring * float(ctx.param("pile_ring_step"))
             spots = []
@@ -206,17 +209,20 @@ class StackSkeleton(FamilySkeleton):
             order = list(range(len(spots)))
             if rng is not None:
                 rng.shuffle(order)
+            # beside the pack first: a pile in front of it is in the arm's way to the target, one behind
+            # it puts the forearm over the stack while placing
+            order.sort(key=lambda i: abs(float(np.dot(spots[i] - target_xy, radial))) > 0.5 * d)
+            low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
             for i in order:
-                if self._reaches_down(ctx, spots[i], height):
+                if all(self._reaches_down(ctx, spots[i], z) for z in (low, height)):
                     return spots[i]
         return None
 
     @staticmethod
-    def _reaches_down(ctx: Context, xy: np.ndarray, height: float) -> bool:
-        """Does a straight-down hand (either roll about the vertical) reach ``height`` above ``xy`` plus the
-        grasp standoff, collision-free?"""
+    def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
+        """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy``, collision-free
+        (the pack still standing)?"""
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9171]))
-        z = height + float(ctx.param("reach_standoff"))
         for quat in ((0.0, 1.0, 0.0, 0.0), (0.0, 0.7071067811865476, 0.7071067811865476, 0.0)):
             try:
                 ctx.planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng, collision_free=True)
