@@ -106,8 +106,10 @@ class StackSkeleton(FamilySkeleton):
     @staticmethod
     def _unstack(ctx: Context) -> list[PickAndCarry]:
         """One tagged pick per stacked object, top first (``s0`` picks the top one)."""
-        return [PickAndCarry(obj, grasp_filter=TOP_DOWN, tag=f"s{k}")
-                for k, obj in enumerate(reversed(_stack(ctx)))]
+        stack = _stack(ctx)
+        below = dict(zip(stack, (TARGET, *stack[:-1]), strict=True))
+        return [PickAndCarry(obj, grasp_filter=TOP_DOWN, tag=f"s{k}", support=below[obj])
+                for k, obj in enumerate(reversed(stack))]
 
     @staticmethod
     def _target() -> PickAndCarry:

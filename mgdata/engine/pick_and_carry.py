@@ -83,6 +83,7 @@ class PickAndCarry:
             reachable grasps are then searched from the live state when its pick starts (the initial-state
             gate's grasp ids belong to the untagged pick), and the episode's grasp id stays the untagged
             pick's.
+        support: the body the object rests on when it is picked (the lift may leave it touching that).
     """
 
     obj: str
@@ -90,6 +91,7 @@ class PickAndCarry:
     grasp_filter: tuple[str, ...] = ()
     level: bool = False
     tag: str = ""
+    support: str = "table"
 
     def name(self, base: str) -> str:
         """The segment or runtime-target name ``base`` of this pick (prefixed by ``tag``)."""
@@ -114,7 +116,7 @@ class PickAndCarry:
             s.hold(n("grasp_settle"), steps=int(p["grasp_settle_steps"])),
             s.gripper(n("close"), "close", steps=int(p["close_steps"])),
             s.linear(n("lift"), n("lift"), gripper="close", attached=self.obj, riders=self.riders,
-                     allow=((self.obj, "table"),)),
+                     allow=((self.obj, self.support),)),
         ]
 
     def carry_segments(self, ctx: Context) -> list[s.MotionSegment]:
