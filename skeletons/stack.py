@@ -9,10 +9,12 @@ target may fall or tip past 30° (the spec).
 
 The pile's spot is chosen from the live scene when the attempt starts (and checked by the initial-state gate):
 spots on rings around the target ``pile_gap`` and more beyond the pack's footprint, at ``pile_bearings``
-bearings (those beside the pack, as seen from the robot, before those in front of or behind it), inside the ``pile_x`` × ``pile_y`` region (robot base frame, m), clear of every other object and of
-the goal, where a straight-down hand reaches both the first object's place and the pile's final height plus the
-pre-grasp standoff (IK, collision-free, the pack still standing). Among those on the
-nearest ring the attempt's draw picks one. No spot is listed per task.
+bearings (first those off the line the open hand spans along its closing axis when it grasps the target, then
+those beside the pack as seen from the robot rather than in front of or behind it), inside the ``pile_x`` ×
+``pile_y`` region (robot base frame, m), clear of every other object and of the goal, where a straight-down
+hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK,
+collision-free, the pack still standing). Among those on the nearest ring the attempt's draw picks one. No
+spot is listed per task.
 
 Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
 target) that moved any object other than the picked one more than ``multi_grab_distance`` in xy.
@@ -195,6 +197,7 @@ class StackSkeleton(FamilySkeleton):
             ctx.param("reach_standoff"))
         n_bear = int(ctx.param("pile_bearings"))
         radial = target_xy / max(float(np.linalg.norm(target_xy)), 1e-9)  # away from the robot's base
+        hand = [_unit_xy((ctx.object_pose(TARGET).matrix() @ g.matrix())[:3, 1]) for g in ctx.grasps[TARGET]]
         for ring in range(int(ctx.param("pile_rings"))):
             d = r_pack + r_pile + gap + ring * float(ctx.param("pile_ring_step"))
             spots = []
@@ -205,15 +208,20 @@ class StackSkeleton(FamilySkeleton):
                     continue
                 if any(np.linalg.norm(xy - o) < r_pile + r + gap for o, r in others):
                     continue
-                if goal is not None and np.linalg.norm(xy - np.asarray(goal.pos[:2])) < r_pile + r_carry + gap:
+                if goal is not None and np.linalg.norm(xy - goal.pos[:2]) < r_pile + r_carry + gap:
                     continue
                 spots.append(xy)
             order = list(range(len(spots)))
             if rng is not None:
                 rng.shuffle(order)
-            # beside the pack first: a pile in front of it is in the arm's way to the target, one behind
-            # it puts the forearm over the stack while placing
-            order.sort(key=lambda i: abs(float(np.dot(spots[i] - target_xy, radial))) > 0.5 * d)
+
+            def along(i: int, axis: np.ndarray, d: float = d, spots: list[np.ndarray] = spots) -> bool:
+                return abs(float(np.dot(spots[i] - target_xy, axis))) > 0.5 * d
+
+            # off the line the hand spans when it grasps the target (20 cm along its closing axis) first, then
+            # beside the pack: a pile in front of it is in the arm's way to the target, one behind it puts
+            # the forearm over the stack while placing
+            order.sort(key=lambda i: (any(along(i, c) for c in hand), along(i, radial)))
             low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
             for i in order:
                 if all(self._reaches_down(ctx, spots[i], z) for z in (low, height)):
@@ -232,6 +240,12 @@ class StackSkeleton(FamilySkeleton):
                 continue
             return True
         return False
+
+
+def _unit_xy(v: np.ndarray) -> np.ndarray:
+    """The horizontal part of ``v``, unit length (zero if ``v`` is vertical)."""
+    n = float(np.hypot(v[0], v[1]))
+    return np.zeros(2) if n < 1e-9 else np.array([v[0], v[1]]) / n
 
 
 def _objects(ctx: Context) -> list[str]:

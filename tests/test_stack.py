@@ -41,7 +41,7 @@ def grasps() -> GraspDB:
 
 def _tilt_deg(d: mujoco.MjData, body: int) -> float:
     """Angle (deg) between the body's +Z and the world's +Z, from its quaternion."""
-    w, x, y, _ = d.xquat[body]
+    _, x, y, _ = d.xquat[body]
     return float(np.degrees(np.arccos(np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0))))
 
 
@@ -75,17 +75,18 @@ def test_stack_scenes_settle_into_upright_stacks_on_the_target() -> None:
             top = d.xpos[under][2] + scene.object_model(below).size[2]
             assert abs(d.xpos[b][2] - top) < 0.003, (k, name, "rests on the one below")
             assert np.hypot(*(d.xpos[b][:2] - d.xpos[under][:2])) < 0.005, (k, name, "centred")
-            touching = {(int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])) for c in d.contact[:d.ncon]}
+            touching = {(int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))
+                        for c in d.contact[:d.ncon]}
             assert (b, under) in touching or (under, b) in touching, (k, name, "touches the one below")
             assert _tilt_deg(d, b) < 2.0, (k, name)
             below = name
         assert len({scene.object_model(n).name for n in STACK}) == 1
 
 
-# --- unsafe: grasp the target first ---------------------------------------------------------------------------
+# --- unsafe: grasp the target first -------------------------------------------------------------------------
 class _Probe(JointController):
-    """Measures from raw MuJoCo after every control step each stacked object's tilt (deg, from ``xquat``)
-    and height (m, ``xpos``)."""
+    """Measures from raw MuJoCo after every control step each stacked object's tilt (deg, from
+    ``xquat``) and height (m, ``xpos``)."""
 
     def __init__(self, scene: Scene) -> None:
         super().__init__(scene)
@@ -101,8 +102,8 @@ class _Probe(JointController):
 
 
 class _TargetFirst(StackSkeleton):
-    """Skip the unstacking: grasp the target under the stack (the hand pushes through the stacked objects),
-    lift it and hold."""
+    """Skip the unstacking: grasp the target under the stack (the hand pushes through the stacked
+    objects), lift it and hold."""
 
     def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
         everything = tuple((ROOT_BODY, o.name) for o in ctx.task.objects)
@@ -120,7 +121,7 @@ class _TargetFirst(StackSkeleton):
         return super().resolve(name, ctx)
 
 
-def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_at_that_step(grasps: GraspDB) -> None:
+def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
     recipe = load_family_recipe("stack")
     ex = Executor(base_task(recipe, 2), recipe, grasps=grasps, render=False)
     ex.skeleton = _TargetFirst()
@@ -138,7 +139,7 @@ def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_at_that_step(
     assert max(probe.heights[0]) - min(probe.heights[tipped - 1]) > 0.0  # it fell from where it stood
 
 
-# --- multi-grab -----------------------------------------------------------------------------------------------
+# --- multi-grab ---------------------------------------------------------------------------------------------
 def test_a_pick_that_moves_another_object_over_5_cm_is_not_a_success(grasps: GraspDB) -> None:
     recipe = load_family_recipe("stack")
     task = base_task(recipe, 2)

@@ -1,10 +1,11 @@
 """The generic placer: one draw of a layout's roles and goal (``mgdata.tasks.layout_rules``) as object poses.
 
 Objects stand upright on the table (z = table top) unless they go ``inside`` a host (on its cavity floor) or
-``on`` one (on its top; several instances of an ``on`` role make a stack, each on the one before). Footprints are the objects' xy bounding circles (from their collision geoms); two
-objects on the table never come closer than the sum of their radii plus the larger of their clearances. A
-rule that cannot be met in ``tries`` position draws raises :class:`LayoutRejected` naming it: the caller
-draws the task again (``mgdata.engine.init_gate``).
+``on`` one (on its top; several instances of an ``on`` role make a stack, each on the one before). Footprints
+are the objects' xy bounding circles (from their collision geoms); two objects on the table never come closer
+than the sum of their radii plus the larger of their clearances. A rule that cannot be met in ``tries``
+position draws raises :class:`LayoutRejected` naming it: the caller draws the task again
+(``mgdata.engine.init_gate``).
 
 Example::
 
@@ -145,7 +146,7 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
 
 
 def _draw(pool: list[str], placed_here: list[ObjectPlacement], role: Role, rng: np.random.Generator) -> str:
-    """A model for the role's next instance: the first instance's if ``same_model``, else drawn from the pool."""
+    """A model for the role's next instance: the first one's if ``same_model``, else drawn from the pool."""
     if role.same_model and placed_here:
         return placed_here[0].model
     return pool[int(rng.integers(len(pool)))]
