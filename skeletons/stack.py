@@ -86,7 +86,11 @@ class StackSkeleton(FamilySkeleton):
             pose = pick.resolve(name, ctx)
             if pose is not None:
                 return pose
-        return self._target().resolve(name, ctx) or super().resolve(name, ctx)
+        pose = self._target().resolve(name, ctx)
+        if pose is None:
+            return super().resolve(name, ctx)
+        ctx.memo["grasp_id"] = ctx.memo[self._target().name("grasp")].id  # the episode's grasp: the target's
+        return pose
 
     def success_extra(self, ctx: Context) -> bool:
         return not ctx.memo.get("multi_grab") and not self._moved_others(ctx)
@@ -115,13 +119,16 @@ class StackSkeleton(FamilySkeleton):
 
     @staticmethod
     def _target() -> PickAndCarry:
-        return PickAndCarry(TARGET)
+        """The target's pick, tagged too: its grasp is chosen among those reachable from where the arm is
+        after the unstacking (from its start pose the gate found grasps; IK from above the pile may not reach
+        the same roll)."""
+        return PickAndCarry(TARGET, tag=TARGET)
 
     def _start_pick(self, ctx: Context, name: str) -> None:
         """A pick starts: judge the one before (multi-grab), then remember where everything is."""
         if self._moved_others(ctx):
             ctx.memo["multi_grab"] = True
-        picked = name[: -len("_pre_grasp")] if name != "pre_grasp" else ""
+        picked = name[: -len("_pre_grasp")]
         obj = next((p.obj for p in self._unstack(ctx) if p.tag == picked), TARGET)
         ctx.memo["picking"] = obj
         ctx.memo["pick_start"] = {n: ctx.object_pose(n).pos[:2].copy() for n in _objects(ctx)}

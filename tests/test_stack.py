@@ -17,6 +17,7 @@ from mgdata.engine import segment as s
 from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
+from mgdata.engine.pick_and_carry import PickAndCarry
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.variation import draw_variation
 from mgdata.grasps.db import GraspDB
@@ -101,13 +102,16 @@ class _Probe(JointController):
         self.heights.append([float(d.xpos[b][2]) for b in self.bodies])
 
 
+UNDER = PickAndCarry("target")
+
+
 class _TargetFirst(StackSkeleton):
     """Skip the unstacking: grasp the target under the stack (the hand pushes through the stacked
     objects), lift it and hold."""
 
     def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
         everything = tuple((ROOT_BODY, o.name) for o in ctx.task.objects)
-        self._target().choose_grasp(ctx)
+        UNDER.choose_grasp(ctx)  # among the gate's grasps, found with the stack allowed to be touched
         return [s.free("pre_grasp", "pre_grasp", allow=everything),
                 s.linear("approach", "grasp", allow=everything),
                 s.gripper("close", "close", steps=12),
@@ -118,7 +122,7 @@ class _TargetFirst(StackSkeleton):
         if name == "lift":
             tcp = ctx.commanded_tcp()
             return Pose(tcp.pos + np.array([0.0, 0.0, 0.12]), tcp.quat)
-        return super().resolve(name, ctx)
+        return UNDER.resolve(name, ctx) or super().resolve(name, ctx)
 
 
 def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
@@ -168,8 +172,12 @@ def test_a_pick_that_moves_another_object_over_5_cm_is_not_a_success(grasps: Gra
         mujoco.mj_kinematics(m, d)
         assert skeleton.success_extra(ctx)
         d.qpos[adr:adr + 3] = start + np.array([0.0, 0.06, 0.0])
+        for i, name in enumerate(STACK[:2]):  # out of the way of the target's grasp (unstacked)
+            a = m.jnt_qposadr[m.body_jntadr[m.body(name).id]]
+            d.qpos[a:a + 3] = start + np.array([-0.1 * i, -0.25, 0.0])
         mujoco.mj_kinematics(m, d)
-        skeleton.resolve("pre_grasp", ctx)  # the target's pick starts: the last one moved the target ...
+        ex.planner.sync(d)
+        skeleton.resolve("target_pre_grasp", ctx)  # the target's pick starts: the last one moved others ...
         assert not skeleton.success_extra(ctx)  # ... which stays a failure (nothing moved since)
     finally:
         ex.close()
