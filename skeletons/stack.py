@@ -12,9 +12,9 @@ spots on rings around the target ``pile_gap`` and more beyond the pack's footpri
 bearings (first those off the line the open hand spans along its closing axis when it grasps the target, then
 those beside the pack as seen from the robot rather than in front of or behind it), inside the ``pile_x`` ×
 ``pile_y`` region (robot base frame, m), clear of every other object and of the goal, where a straight-down
-hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK,
-collision-free, the pack still standing). Among those on the nearest ring the attempt's draw picks one. No
-spot is listed per task.
+hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK, the
+arm ``pile_arm_clearance`` clear of everything, the pack still standing). On the nearest ring that has one,
+the attempt's draw picks among the preferred ones. No spot is listed per task.
 
 Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
 target) that moved any object other than the picked one more than ``multi_grab_distance`` in xy.
@@ -60,6 +60,8 @@ class StackSkeleton(FamilySkeleton):
               0.0, 0.3),
         Param("place_gap", float, "m above the pile's top at which an object is released", 0.0, 0.05),
         Param("release_steps", int, "control steps to open the gripper on the pile", 1, 200),
+        Param("pile_arm_clearance", float, "m the arm keeps from everything when the pile spot is tested",
+              0.0, 0.1),
         Param("multi_grab_distance", float, "m in xy another object may move during a pick", 0.005, 0.5),
     ))
 
@@ -145,16 +147,16 @@ class StackSkeleton(FamilySkeleton):
     # -- the pile ----------------------------------------------------------------------------------------
     def _pile_target(self, pick: PickAndCarry, name: str, ctx: Context) -> Pose:
         """TCP pose putting the held object on the pile (``on_pile``: ``place_gap`` above its top) or
-        ``pile_approach`` above that (``over_pile``, at least the current height), the object upright and
-        turned about the vertical by the first of ``carry_yaws_deg`` the arm reaches."""
+        ``pile_approach`` above that (``over_pile``: the free carry goes there, around the stack, so that
+        only a short straight line remains), the object upright and turned about the vertical by the first
+        of ``carry_yaws_deg`` the arm reaches."""
         key = pick.name("pile_tcp")
         if name == pick.name("over_pile") or key not in ctx.memo:
             ctx.memo[key] = self._place_pose(pick.obj, ctx)
         place: Pose = ctx.memo[key]
         if name == pick.name("on_pile"):
             return place
-        z = max(place.pos[2] + float(ctx.param("pile_approach")), ctx.commanded_tcp().pos[2])
-        return Pose(np.array([place.pos[0], place.pos[1], z]), place.quat)
+        return Pose(place.pos + np.array([0.0, 0.0, float(ctx.param("pile_approach"))]), place.quat)
 
     def _place_pose(self, obj: str, ctx: Context) -> Pose:
         scene = ctx.scene
@@ -237,15 +239,18 @@ class StackSkeleton(FamilySkeleton):
 
     @staticmethod
     def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
-        """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy``, collision-free
-        (the pack still standing)?"""
+        """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy`` with the arm
+        ``pile_arm_clearance`` clear of everything (the pack still standing)?"""
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9171]))
+        planner = ctx.planner
         for quat in ((0.0, 1.0, 0.0, 0.0), (0.0, 0.7071067811865476, 0.7071067811865476, 0.0)):
             try:
-                ctx.planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng, collision_free=True)
+                q = planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng)
             except MotionFailure:
                 continue
-            return True
+            planner.checker.configure(AllowedContacts(()), None, float(ctx.param("pile_arm_clearance")))
+            if planner.checker.valid(q):
+                return True
         return False
 
 
