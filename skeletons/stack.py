@@ -13,8 +13,9 @@ bearings (first those off the line the open hand spans along its closing axis wh
 those beside the pack as seen from the robot rather than in front of or behind it), inside the ``pile_x`` ×
 ``pile_y`` region (robot base frame, m), clear of every other object and of the goal, where a straight-down
 hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK, the
-arm ``pile_arm_clearance`` clear of everything, the pack still standing). On the nearest ring that has one,
-the attempt's draw picks among the preferred ones. No spot is listed per task.
+arm ``pile_arm_clearance`` clear of everything, the pack still standing), and the target keeps a reachable
+grasp with the whole stack piled there (checked in the planner's copy of the scene). On the nearest ring that
+has one, the attempt's draw picks among the preferred ones. No spot is listed per task.
 
 Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
 target) that moved any object other than the picked one more than ``multi_grab_distance`` in xy.
@@ -25,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import mujoco
 import numpy as np
 
 from mgdata.engine import segment as s
@@ -233,9 +235,30 @@ class StackSkeleton(FamilySkeleton):
             order.sort(key=lambda i: (any(along(i, c) for c in hand), along(i, radial)))
             low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
             for i in order:
-                if all(self._reaches_down(ctx, spots[i], z) for z in (low, height)):
+                if (all(self._reaches_down(ctx, spots[i], z) for z in (low, height))
+                        and self._target_reachable_beside(ctx, spots[i])):
                     return spots[i]
         return None
+
+    @staticmethod
+    def _target_reachable_beside(ctx: Context, xy: np.ndarray) -> bool:
+        """Is a grasp of the target reachable with the whole stack piled at ``xy``? Checked in the planner's
+        private copy of the scene, the stacked objects moved there (the live scene is not touched)."""
+        scene = ctx.scene
+        m = scene.model
+        piled = mujoco.MjData(m)
+        mujoco.mj_copyData(piled, m, scene.data)
+        z = TABLE_TOP_Z
+        for name in reversed(_stack(ctx)):  # the top one goes first, at the bottom of the pile
+            adr = m.jnt_qposadr[m.body_jntadr[scene.object_body(name)]]
+            piled.qpos[adr:adr + 3] = (xy[0], xy[1], z)
+            z += scene.object_model(name).size[2]
+        mujoco.mj_kinematics(m, piled)
+        ctx.planner.sync(piled)
+        try:
+            return bool(PickAndCarry(TARGET).reachable_grasps(ctx))
+        finally:
+            ctx.planner.sync(scene.data)
 
     @staticmethod
     def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
