@@ -263,7 +263,8 @@ class StackSkeleton(FamilySkeleton):
     @staticmethod
     def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
         """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy`` with the arm
-        ``pile_arm_clearance`` clear of everything (the pack still standing)?"""
+        ``pile_arm_clearance`` clear of every object (the pack still standing; the table may be near: a low
+        object is placed close to it)?"""
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9171]))
         planner = ctx.planner
         for quat in ((0.0, 1.0, 0.0, 0.0), (0.0, 0.7071067811865476, 0.7071067811865476, 0.0)):
@@ -271,7 +272,8 @@ class StackSkeleton(FamilySkeleton):
                 q = planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng)
             except MotionFailure:
                 continue
-            planner.checker.configure(AllowedContacts(()), None, float(ctx.param("pile_arm_clearance")))
+            planner.checker.configure(AllowedContacts(((ROOT_BODY, "table"),)), None,
+                                      float(ctx.param("pile_arm_clearance")))
             if planner.checker.valid(q):
                 return True
         return False
