@@ -140,7 +140,9 @@ def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: 
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 30.0)
     assert result.t_violation["stack_stays_upright"] == tipped == len(frames) - 1
     assert all(v is None or v >= tipped for v in result.t_violation.values())
-    assert max(probe.heights[0]) - min(probe.heights[tipped - 1]) > 0.0  # it fell from where it stood
+    assert max(probe.tilts[0]) < 2.0  # it stood upright when the attempt started
+    drop = max(h0 - h for h0, h in zip(probe.heights[0], probe.heights[-1], strict=True))
+    assert drop > 0.02  # and it came down from where it stood (xpos), not only tilted in place
 
 
 # --- multi-grab ---------------------------------------------------------------------------------------------
