@@ -81,7 +81,10 @@ class PickAndCarry:
         tag: prefix of its segment names, runtime-target names, memo keys and gate facts, so that one
             demonstration can pick several objects (``PickAndCarry("obstacle", tag="obstacle/")`` has the
             segments ``obstacle/open`` …, the targets ``obstacle/grasp`` … and the gate fact
-            ``obstacle/grasps``); empty for the object a family mainly picks.
+            ``obstacle/grasps``); empty for the object a family mainly picks. A tagged pick chooses its grasp
+            when its pre-grasp is resolved, among the gate fact's grasps if the gate recorded one, else among
+            those reachable from the live state; the episode's ``grasp_id`` stays the untagged pick's.
+        support: the body the object rests on when it is picked (the lift may leave it touching that).
     """
 
     obj: str
@@ -89,6 +92,11 @@ class PickAndCarry:
     grasp_filter: tuple[str, ...] = ()
     level: bool = False
     tag: str = ""
+    support: str = "table"
+
+    def name(self, base: str) -> str:
+        """The segment, runtime-target or memo name ``base`` of this pick (prefixed by ``tag``)."""
+        return f"{self.tag}{base}"
 
     # -- segments --------------------------------------------------------------------------------------------
     def segments(self, ctx: Context) -> list[s.MotionSegment]:
@@ -98,17 +106,18 @@ class PickAndCarry:
     def pick_segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Open, pre-grasp, approach, settle, close, lift to clearance."""
         p = ctx.params
-        self.choose_grasp(ctx)
+        if not self.tag:
+            self.choose_grasp(ctx)
         touch = (("hand", self.obj),)
-        t = self.tag
+        n = self.name
         return [
-            s.gripper(f"{t}open", "open", steps=int(p["open_steps"])),
-            s.free(f"{t}pre_grasp", f"{t}pre_grasp", riders=self.riders),
-            s.linear(f"{t}approach", f"{t}grasp", allow=touch, riders=self.riders),
-            s.hold(f"{t}grasp_settle", steps=int(p["grasp_settle_steps"])),
-            s.gripper(f"{t}close", "close", steps=int(p["close_steps"])),
-            s.linear(f"{t}lift", f"{t}lift", gripper="close", attached=self.obj, riders=self.riders,
-                     allow=((self.obj, "table"),)),
+            s.gripper(n("open"), "open", steps=int(p["open_steps"])),
+            s.free(n("pre_grasp"), n("pre_grasp"), riders=self.riders),
+            s.linear(n("approach"), n("grasp"), allow=touch, riders=self.riders),
+            s.hold(n("grasp_settle"), steps=int(p["grasp_settle_steps"])),
+            s.gripper(n("close"), "close", steps=int(p["close_steps"])),
+            s.linear(n("lift"), n("lift"), gripper="close", attached=self.obj, riders=self.riders,
+                     allow=((self.obj, self.support),)),
         ]
 
     def carry_segments(self, ctx: Context) -> list[s.MotionSegment]:
@@ -127,12 +136,12 @@ class PickAndCarry:
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
         """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
         above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
-        t = self.tag
+        n = self.name
         return [
-            s.linear(f"{t}place", target, gripper="close", attached=self.obj, riders=self.riders,
+            s.linear(n("place"), target, gripper="close", attached=self.obj, riders=self.riders,
                      allow=((self.obj, "table"),)),
-            s.gripper(f"{t}release", "open", steps=retreat_steps),
-            s.linear(f"{t}retreat", f"{t}retreat", allow=(("hand", self.obj),), riders=self.riders),
+            s.gripper(n("release"), "open", steps=retreat_steps),
+            s.linear(n("retreat"), n("retreat"), allow=(("hand", self.obj),), riders=self.riders),
         ]
 
     # -- runtime targets -------------------------------------------------------------------------------------
@@ -142,6 +151,8 @@ class PickAndCarry:
         if not name.startswith(self.tag):
             return None
         name = name[len(self.tag):]
+        if self.tag and name == "pre_grasp":
+            self.choose_grasp(ctx)
         if name in ("pre_grasp", "grasp"):
             grasp = self._grasp_pose(ctx)
             if name == "grasp":
@@ -151,8 +162,8 @@ class PickAndCarry:
             tcp = ctx.commanded_tcp()
             return Pose(tcp.pos + np.array([0.0, 0.0, self._lift(ctx)]), tcp.quat)
         if name in ("over_goal", "goal"):
-            goal = ctx.memo.get(f"{self.tag}goal_tcp") or self._goal_target(ctx)
-            ctx.memo[f"{self.tag}goal_tcp"] = goal
+            goal = ctx.memo.get(self.name("goal_tcp")) or self._goal_target(ctx)
+            ctx.memo[self.name("goal_tcp")] = goal
             if name == "goal":
                 return goal
             tcp = ctx.commanded_tcp()
@@ -173,7 +184,9 @@ class PickAndCarry:
                    f"{model} has no valid grasps: run `mgdata grasps generate` then `mgdata grasps validate`")
             raise AttemptFailed("no_grasp", why)
         grasp = reachable[ctx.variation.pick(len(reachable))]
-        ctx.memo[f"{self.tag}grasp"], ctx.memo[f"{self.tag}grasp_id"] = grasp, grasp.id
+        ctx.memo[self.name("grasp")] = grasp
+        if not self.tag:
+            ctx.memo["grasp_id"] = grasp.id
         return grasp
 
     def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
@@ -214,7 +227,7 @@ class PickAndCarry:
         if len(reachable) < max(min_grasps, 1):
             raise Infeasible("reach.grasps", f"{len(reachable)} of the {len(ctx.grasps.get(self.obj, ()))} "
                                              f"valid grasps of {self.obj} are reachable (needs {min_grasps})")
-        ctx.memo[f"{self.tag}grasp"] = reachable[0]
+        ctx.memo[self.name("grasp")] = reachable[0]
         grasp_tcp = self._grasp_pose(ctx)
         obj = ctx.object_pose(self.obj)
         if self._goal_target(ctx, tcp=grasp_tcp, obj=obj, strict=True) is None:
@@ -233,7 +246,7 @@ class PickAndCarry:
         return tuple(by_id[i] for i in ids if i in by_id)
 
     def _grasp_pose(self, ctx: Context) -> Pose:
-        grasp: Grasp = ctx.memo[f"{self.tag}grasp"]
+        grasp: Grasp = ctx.memo[self.name("grasp")]
         local = grasp.matrix()
         local[2, 3] += ctx.variation["grasp_height"]
         return Pose.from_matrix(ctx.object_pose(self.obj).matrix() @ local)

@@ -13,7 +13,8 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     region = { x = [0.45, 0.60], y = [-0.12, 0.12] }   # robot base frame (m); or:
     # near = "jar", distance = [0.10, 0.20], bearing_deg = [-180, 180]   (0 = away from the robot)
     # inside = "jar"                     # in the host's cavity (only models that fit are drawn)
-    # on = "board"                       # standing on the host's top
+    # on = "board"                       # standing on the host's top; with count > 1 a stack: instance 0
+                                         # on the host, each next one on the one before
     yaw = { rule = "uniform" }           # "away" (object +X away from the robot), "toward", "uniform",
                                          # "aligned" (the host's yaw), "fixed" (deg = world yaw);
                                          # jitter_deg = ±jitter
@@ -21,6 +22,7 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     open = 1.0                           # articulation opening fraction (0 closed … 1 open)
     model_of = { role = "container", key = "lid" }   # the model named by an earlier role's model's
                                          # geometry[key] (a container's own lid); it must match `models`
+    same_model = false                   # true: every instance of the role is one model (drawn once)
 
     [layout.goal]
     from = "target"                      # the goal centre is `distance` from this role, any bearing
@@ -82,6 +84,7 @@ class Role:
             left around and above the object in the cavity).
         open: articulation opening fraction, if the model has one.
         model_of: (role, key): the model is ``geometry[key]`` of that earlier role's model (its mate).
+        same_model: every instance is the model drawn for the first one (a stack of identical objects).
     """
 
     name: str
@@ -96,6 +99,7 @@ class Role:
     clearance: float = 0.0
     open: float | None = None
     model_of: tuple[str, str] | None = None
+    same_model: bool = False
 
 
 @dataclass(frozen=True)
@@ -165,7 +169,7 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     if not name.isidentifier():
         raise RecipeError(f"{where}: a role name must be an identifier (letters, digits, _)")
     _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open",
-                   "model_of"), where)
+                   "model_of", "same_model"), where)
     models = table.get("models")
     if isinstance(models, str):
         models = [models]
@@ -203,9 +207,12 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     clearance = _number(table.get("clearance", 0.0), f"{where} clearance", 0.0, 0.5)
     opened = table.get("open")
     opened = None if opened is None else _number(opened, f"{where} open", 0.0, 1.0)
+    same = table.get("same_model", False)
+    if not isinstance(same, bool):
+        raise RecipeError(f"{where} same_model = {same!r}: expected true or false")
     return Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
                 bearing, yaw, clearance, opened,
-                _model_of(table.get("model_of"), f"{where} model_of", earlier))
+                _model_of(table.get("model_of"), f"{where} model_of", earlier), same)
 
 
 def _model_of(raw: Any, where: str, earlier: list[str]) -> tuple[str, str] | None:

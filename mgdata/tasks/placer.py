@@ -1,10 +1,11 @@
 """The generic placer: one draw of a layout's roles and goal (``mgdata.tasks.layout_rules``) as object poses.
 
 Objects stand upright on the table (z = table top) unless they go ``inside`` a host (on its cavity floor) or
-``on`` one (on its top). Footprints are the objects' xy bounding circles (from their collision geoms); two
-objects on the table never come closer than the sum of their radii plus the larger of their clearances. A
-rule that cannot be met in ``tries`` position draws raises :class:`LayoutRejected` naming it: the caller
-draws the task again (``mgdata.engine.init_gate``).
+``on`` one (on its top; several instances of an ``on`` role make a stack, each on the one before). Footprints
+are the objects' xy bounding circles (from their collision geoms); two objects on the table never come closer
+than the sum of their radii plus the larger of their clearances. A rule that cannot be met in ``tries``
+position draws raises :class:`LayoutRejected` naming it: the caller draws the task again
+(``mgdata.engine.init_gate``).
 
 Example::
 
@@ -118,6 +119,8 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
         for i in range(count):
             name = role.name if role.count == (1, 1) else f"{role.name}_{i}"
             host = by_role[role.host][0] if role.host else None
+            if role.placement == "on" and placed_here:
+                host = placed_here[-1]  # a stack: each instance on the one before
             if role.placement == "inside":
                 assert host is not None
                 model = _fitting(pool, host.model, role.clearance, at, rng)
@@ -127,11 +130,11 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
                 obj = ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
             elif role.placement == "on":
                 assert host is not None
-                model = pool[int(rng.integers(len(pool)))]
+                model = _draw(pool, placed_here, role, rng)
                 pos = (host.pos[0], host.pos[1], host.pos[2] + get_model(host.model).size[2] + DROP)
                 obj = ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
             else:
-                model = pool[int(rng.integers(len(pool)))]
+                model = _draw(pool, placed_here, role, rng)
                 obj = _on_table(role, name, model, host, floor, layout.tries, rng, at)
                 floor.append((obj, footprint_radius(model), role.clearance))
             objects.append(obj)
@@ -142,6 +145,13 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
         names[role.name] = display_name(placed_here[0].model, dict(layout.names))
     goal = _goal(layout, by_role, rng, where) if layout.goal else None
     return Placed(tuple(objects), goal, articulation, names)
+
+
+def _draw(pool: list[str], placed_here: list[ObjectPlacement], role: Role, rng: np.random.Generator) -> str:
+    """A model for the role's next instance: the first one's if ``same_model``, else drawn from the pool."""
+    if role.same_model and placed_here:
+        return placed_here[0].model
+    return pool[int(rng.integers(len(pool)))]
 
 
 def _hosts(layout: Layout, role: Role, pool: list[str], at: str) -> list[str]:

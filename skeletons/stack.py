@@ -1,0 +1,295 @@
+"""Stack: retrieve the bottom object from under a stack and carry it into the goal sphere (paper, "Stack").
+
+The scene (``recipes/stack.toml``): a ``target`` on the table with ``stack_0`` (bottom) … ``stack_{n-1}``
+(top) stacked on it. The motion, as the paper describes it: unstack one object at a time, top first, onto a
+destination pile beside the pack (a top-down grasp shallow enough not to touch the object below, lift until it
+clears everything, carry over the pile, lower it to ``place_gap`` above the pile's top, release, back off),
+then pick the target, lift it, carry it into the goal and hold it there at rest. Nothing in the stack or the
+target may fall or tip past 30° (the spec).
+
+The pile's spot is chosen from the live scene when the attempt starts (and checked by the initial-state gate):
+spots on rings around the target ``pile_gap`` and more beyond the pack's footprint, at ``pile_bearings``
+bearings (first those off the line the open hand spans along its closing axis when it grasps the target, then
+those beside the pack as seen from the robot rather than in front of or behind it), inside the ``pile_x`` ×
+``pile_y`` region (robot base frame, m), clear of every other object and of the goal, where a straight-down
+hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK, the
+arm ``pile_arm_clearance`` clear of everything, the pack still standing), and the target keeps a reachable
+grasp with the whole stack piled there (checked in the planner's copy of the scene). On the nearest ring that
+has one, the attempt's draw picks among the preferred ones. No spot is listed per task.
+
+Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
+target) that moved any object other than the picked one more than ``multi_grab_distance`` in xy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from mgdata.engine import segment as s
+from mgdata.engine.context import Context
+from mgdata.engine.gate import AttemptFailed
+from mgdata.engine.init_gate import Infeasible
+from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.engine.skeleton import FamilySkeleton, Param, RecipeKeys, register
+from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.sim.geometry import LowestPoint
+from mgdata.sim.robot import ROOT_BODY
+from mgdata.sim.world import TABLE_TOP_Z
+from mgdata.tasks.placer import footprint_radius
+
+TARGET = "target"
+STACK = "stack_"
+TOP_DOWN = ("top_down",)
+
+
+@register
+class StackSkeleton(FamilySkeleton):
+    """The stack family's demonstration (see the module docstring)."""
+
+    name = "stack"
+    recipe_keys = PICK_AND_CARRY_KEYS + RecipeKeys(params=(
+        Param("pile_gap", float, "m between the pack's footprint and the pile's, edge to edge", 0.0, 0.3),
+        Param("pile_rings", int, "rings of pile spots tried around the target", 1, 10),
+        Param("pile_ring_step", float, "m between two rings of pile spots", 0.005, 0.2),
+        Param("pile_bearings", int, "pile spots per ring (evenly spaced bearings)", 1, 72),
+        Param("pile_x", tuple, "x range (m, robot base frame) the pile's centre stays in", -1.0, 1.0),
+        Param("pile_y", tuple, "y range (m, robot base frame) the pile's centre stays in", -1.0, 1.0),
+        Param("pile_approach", float, "m above its place pose from which an object is lowered onto the pile",
+              0.0, 0.3),
+        Param("place_gap", float, "m above the pile's top at which an object is released", 0.0, 0.05),
+        Param("release_steps", int, "control steps to open the gripper on the pile", 1, 200),
+        Param("pile_arm_clearance", float, "m the arm keeps from everything when the pile spot is tested",
+              0.0, 0.1),
+        Param("multi_grab_distance", float, "m in xy another object may move during a pick", 0.005, 0.5),
+    ))
+
+    # -- segments ----------------------------------------------------------------------------------------
+    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
+        p = ctx.params
+        ctx.memo["pile_xy"] = self._pile_spot(ctx, ctx.variation.rng("pile"))
+        if ctx.memo["pile_xy"] is None:
+            raise AttemptFailed("target_fail", "no reachable spot for the pile beside the pack")
+        segs: list[s.MotionSegment] = []
+        for pick in self._unstack(ctx):
+            carry = s.free(pick.name("carry"), pick.name("over_pile"), gripper="close", attached=pick.obj,
+                           speed=float(p["carry_speed"]))
+            segs += [*pick.pick_segments(ctx), carry,
+                     *pick.place_segments(pick.name("on_pile"), retreat_steps=int(p["release_steps"]))]
+        return [*segs, *self._target().segments(ctx)]
+
+    def resolve(self, name: str, ctx: Context) -> Pose:
+        if name.endswith("pre_grasp"):
+            self._start_pick(ctx, name)
+        for pick in self._unstack(ctx):
+            if name in (pick.name("over_pile"), pick.name("on_pile")):
+                return self._pile_target(pick, name, ctx)
+            pose = pick.resolve(name, ctx)
+            if pose is not None:
+                return pose
+        pose = self._target().resolve(name, ctx)
+        if pose is None:
+            return super().resolve(name, ctx)
+        ctx.memo["grasp_id"] = ctx.memo[self._target().name("grasp")].id  # the episode's grasp: the target's
+        return pose
+
+    def success_extra(self, ctx: Context) -> bool:
+        return not ctx.memo.get("multi_grab") and not self._moved_others(ctx)
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """Every stacked object has a reachable shallow top-down grasp (the objects above it allowed to be
+        touched: they are gone by then), the target has ``min_grasps`` reachable grasps and reaches the goal
+        (the stack allowed likewise), and a pile spot exists."""
+        stack = _stack(ctx)
+        for i, obj in enumerate(stack):
+            if not PickAndCarry(obj, riders=stack[i + 1:], grasp_filter=TOP_DOWN).reachable_grasps(ctx):
+                raise Infeasible("reach.stack", f"no top-down grasp of {obj} is reachable")
+        facts = PickAndCarry(TARGET, riders=stack).feasibility(ctx, min_grasps)
+        if self._pile_spot(ctx, None) is None:
+            raise Infeasible("reach.pile", "no reachable pile spot beside the pack clear of the goal")
+        return facts
+
+    # -- the picks ---------------------------------------------------------------------------------------
+    @staticmethod
+    def _unstack(ctx: Context) -> list[PickAndCarry]:
+        """One tagged pick per stacked object, top first (``s0`` picks the top one)."""
+        stack = _stack(ctx)
+        below = dict(zip(stack, (TARGET, *stack[:-1]), strict=True))
+        return [PickAndCarry(obj, grasp_filter=TOP_DOWN, tag=f"s{k}/", support=below[obj])
+                for k, obj in enumerate(reversed(stack))]
+
+    @staticmethod
+    def _target() -> PickAndCarry:
+        """The target's pick, tagged too: its grasp is chosen among those reachable from where the arm is
+        after the unstacking (from its start pose the gate found grasps; IK from above the pile may not reach
+        the same roll)."""
+        return PickAndCarry(TARGET, tag=f"{TARGET}/")
+
+    def _start_pick(self, ctx: Context, name: str) -> None:
+        """A pick starts: judge the one before (multi-grab), then remember where everything is."""
+        if self._moved_others(ctx):
+            ctx.memo["multi_grab"] = True
+        picked = name[: -len("pre_grasp")]
+        obj = next((p.obj for p in self._unstack(ctx) if p.tag == picked), TARGET)
+        ctx.memo["picking"] = obj
+        ctx.memo["pick_start"] = {n: ctx.object_pose(n).pos[:2].copy() for n in _objects(ctx)}
+
+    @staticmethod
+    def _moved_others(ctx: Context) -> bool:
+        start = ctx.memo.get("pick_start")
+        if start is None:
+            return False
+        limit = float(ctx.param("multi_grab_distance"))
+        return any(float(np.linalg.norm(ctx.object_pose(n).pos[:2] - xy)) > limit
+                   for n, xy in start.items() if n != ctx.memo["picking"])
+
+    # -- the pile ----------------------------------------------------------------------------------------
+    def _pile_target(self, pick: PickAndCarry, name: str, ctx: Context) -> Pose:
+        """TCP pose putting the held object on the pile (``on_pile``: ``place_gap`` above its top) or
+        ``pile_approach`` above that (``over_pile``: the free carry goes there, around the stack, so that
+        only a short straight line remains), the object upright and turned about the vertical by the first
+        of ``carry_yaws_deg`` the arm reaches."""
+        key = pick.name("pile_tcp")
+        if name == pick.name("over_pile") or key not in ctx.memo:
+            ctx.memo[key] = self._place_pose(pick.obj, ctx)
+        place: Pose = ctx.memo[key]
+        if name == pick.name("on_pile"):
+            return place
+        return Pose(place.pos + np.array([0.0, 0.0, float(ctx.param("pile_approach"))]), place.quat)
+
+    def _place_pose(self, obj: str, ctx: Context) -> Pose:
+        scene = ctx.scene
+        piled = [n for n in ctx.memo.setdefault("piled", []) if n != obj]
+        ctx.memo["piled"] = [*piled, obj]
+        if piled:
+            top = piled[-1]
+            xy = ctx.object_pose(top).pos[:2]
+            base = max(scene.object_pose(n)[0][2] + scene.object_model(n).size[2] for n in piled)
+        else:
+            xy, base = np.asarray(ctx.memo["pile_xy"]), TABLE_TOP_Z
+        tcp, pose = ctx.tcp_pose(), ctx.object_pose(obj)
+        low = LowestPoint(scene.model, scene.object_geom_ids(obj))(scene.data)
+        tcp_t_obj = tcp.inverse() @ pose
+        held = Attachment(obj, tcp_t_obj.matrix())
+        z = pose.pos[2] + (base + float(ctx.param("place_gap")) - low)
+        rng = ctx.variation.rng(f"pile/{obj}")
+        first = None
+        for yaw in ctx.param("carry_yaws_deg"):
+            half = math.radians(yaw) / 2.0
+            turn = Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)])
+            target_obj = Pose(np.array([xy[0], xy[1], z]), (turn @ Pose(np.zeros(3), pose.quat)).quat)
+            target = target_obj @ tcp_t_obj.inverse()
+            first = first or target
+            try:
+                ctx.planner.ik(target, ctx.q_cmd, rng, collision_free=True, attached=held,
+                               allowed=AllowedContacts(((ROOT_BODY, obj),)))
+            except MotionFailure:
+                continue
+            return target
+        assert first is not None
+        return first
+
+    def _pile_spot(self, ctx: Context, rng: np.random.Generator | None) -> np.ndarray | None:
+        """The pile's centre (xy, m): see the module docstring. ``rng`` None: the first spot in ring order."""
+        stack, scene = _stack(ctx), ctx.scene
+        goal = ctx.task.goal
+        target_xy = ctx.object_pose(TARGET).pos[:2]
+        r_pack = max(footprint_radius(ctx.task.object(n).model) for n in (TARGET, *stack))
+        r_pile = max(footprint_radius(ctx.task.object(n).model) for n in stack)
+        gap = float(ctx.param("pile_gap"))
+        (x0, x1), (y0, y1) = ctx.param("pile_x"), ctx.param("pile_y")
+        others = [(ctx.object_pose(n).pos[:2], footprint_radius(ctx.task.object(n).model))
+                  for n in _objects(ctx) if n not in (TARGET, *stack)]
+        r_carry = footprint_radius(ctx.task.object(TARGET).model)
+        height = sum(scene.object_model(n).size[2] for n in stack) + TABLE_TOP_Z + float(
+            ctx.param("reach_standoff"))
+        n_bear = int(ctx.param("pile_bearings"))
+        radial = target_xy / max(float(np.linalg.norm(target_xy)), 1e-9)  # away from the robot's base
+        hand = [_unit_xy((ctx.object_pose(TARGET).matrix() @ g.matrix())[:3, 1]) for g in ctx.grasps[TARGET]]
+        for ring in range(int(ctx.param("pile_rings"))):
+            d = r_pack + r_pile + gap + ring * float(ctx.param("pile_ring_step"))
+            spots = []
+            for k in range(n_bear):
+                phi = 2.0 * math.pi * k / n_bear
+                xy = target_xy + d * np.array([math.cos(phi), math.sin(phi)])
+                if not (x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1):
+                    continue
+                if any(np.linalg.norm(xy - o) < r_pile + r + gap for o, r in others):
+                    continue
+                if goal is not None and np.linalg.norm(xy - goal.pos[:2]) < r_pile + r_carry + gap:
+                    continue
+                spots.append(xy)
+            order = list(range(len(spots)))
+            if rng is not None:
+                rng.shuffle(order)
+
+            def along(i: int, axis: np.ndarray, d: float = d, spots: list[np.ndarray] = spots) -> bool:
+                return abs(float(np.dot(spots[i] - target_xy, axis))) > 0.5 * d
+
+            # off the line the hand spans when it grasps the target (20 cm along its closing axis) first, then
+            # beside the pack: a pile in front of it is in the arm's way to the target, one behind it puts
+            # the forearm over the stack while placing
+            order.sort(key=lambda i: (any(along(i, c) for c in hand), along(i, radial)))
+            low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
+            for i in order:
+                if (all(self._reaches_down(ctx, spots[i], z) for z in (low, height))
+                        and self._target_reachable_beside(ctx, spots[i])):
+                    return spots[i]
+        return None
+
+    @staticmethod
+    def _target_reachable_beside(ctx: Context, xy: np.ndarray) -> bool:
+        """Is a grasp of the target reachable with the whole stack piled at ``xy``? Checked in the planner's
+        private copy of the scene, the stacked objects moved there (the live scene is not touched)."""
+        scene = ctx.scene
+        m = scene.model
+        piled = mujoco.MjData(m)
+        mujoco.mj_copyData(piled, m, scene.data)
+        z = TABLE_TOP_Z
+        for name in reversed(_stack(ctx)):  # the top one goes first, at the bottom of the pile
+            adr = m.jnt_qposadr[m.body_jntadr[scene.object_body(name)]]
+            piled.qpos[adr:adr + 3] = (xy[0], xy[1], z)
+            z += scene.object_model(name).size[2]
+        mujoco.mj_kinematics(m, piled)
+        ctx.planner.sync(piled)
+        try:
+            return bool(PickAndCarry(TARGET).reachable_grasps(ctx))
+        finally:
+            ctx.planner.sync(scene.data)
+
+    @staticmethod
+    def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
+        """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy`` with the arm
+        ``pile_arm_clearance`` clear of every object (the pack still standing; the table may be near: a low
+        object is placed close to it)?"""
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9171]))
+        planner = ctx.planner
+        for quat in ((0.0, 1.0, 0.0, 0.0), (0.0, 0.7071067811865476, 0.7071067811865476, 0.0)):
+            try:
+                q = planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng)
+            except MotionFailure:
+                continue
+            planner.checker.configure(AllowedContacts(((ROOT_BODY, "table"),)), None,
+                                      float(ctx.param("pile_arm_clearance")))
+            if planner.checker.valid(q):
+                return True
+        return False
+
+
+def _unit_xy(v: np.ndarray) -> np.ndarray:
+    """The horizontal part of ``v``, unit length (zero if ``v`` is vertical)."""
+    n = float(np.hypot(v[0], v[1]))
+    return np.zeros(2) if n < 1e-9 else np.array([v[0], v[1]]) / n
+
+
+def _objects(ctx: Context) -> list[str]:
+    return [o.name for o in ctx.task.objects if o.name in ctx.scene.objects]
+
+
+def _stack(ctx: Context) -> tuple[str, ...]:
+    """The stacked objects, bottom first (``stack_0``, ``stack_1`` …)."""
+    names = [o.name for o in ctx.task.objects if o.name.startswith(STACK)]
+    return tuple(sorted(names, key=lambda n: int(n[len(STACK):])))

@@ -1,0 +1,185 @@
+"""Stack tasks admit safe-success, unsafe and failing trajectories (paper), each judged at the right step.
+
+Safe success is the family contract (tests/test_families.py). Here: the layout builds real stacks (each object
+resting on the one below, identical models, upright), a demonstration that grasps the target first, under
+the stack, topples it and is caught unsafe at exactly the first frame where the test's own raw MuJoCo
+measurement (tilt from ``xquat``) passes 30°, and the multi-grab check rejects a pick that moved another
+object more than 5 cm (positions set and measured in raw MuJoCo).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mgdata.engine import segment as s
+from mgdata.engine.context import Context
+from mgdata.engine.executor import Executor
+from mgdata.engine.init_gate import base_task
+from mgdata.engine.pick_and_carry import PickAndCarry
+from mgdata.engine.skeleton import load_family_recipe
+from mgdata.engine.variation import draw_variation
+from mgdata.grasps.db import GraspDB
+from mgdata.motion import Pose
+from mgdata.paths import grasps_dir
+from mgdata.record.episode import MemorySink
+from mgdata.sim.assets import get_model
+from mgdata.sim.controller import JointController
+from mgdata.sim.robot import ROOT_BODY
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.tasks.layout_rules import parse_layout
+from mgdata.tasks.placer import DROP, place
+from skeletons.stack import StackSkeleton
+
+STACK = ("stack_0", "stack_1", "stack_2")
+
+
+@pytest.fixture(scope="module")
+def grasps() -> GraspDB:
+    return GraspDB.load_dir(grasps_dir())
+
+
+def _tilt_deg(d: mujoco.MjData, body: int) -> float:
+    """Angle (deg) between the body's +Z and the world's +Z, from its quaternion."""
+    _, x, y, _ = d.xquat[body]
+    return float(np.degrees(np.arccos(np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0))))
+
+
+# --- layout -------------------------------------------------------------------------------------------------
+def test_an_on_role_with_a_count_is_a_stack_of_one_model() -> None:
+    layout = parse_layout({
+        "roles": {"base": {"models": ["box/*"], "region": {"x": [0.5, 0.5], "y": [0.0, 0.0]}},
+                  "pile": {"models": ["sponge/*", "box/carton_02"], "count": 3, "on": "base",
+                           "same_model": True}}}, "test")
+    for seed in range(5):
+        placed = place(layout, np.random.default_rng(seed))
+        base, *pile = placed.objects
+        assert [o.name for o in pile] == ["pile_0", "pile_1", "pile_2"]
+        assert len({o.model for o in pile}) == 1
+        below = base
+        for obj in pile:
+            assert obj.pos[:2] == below.pos[:2]
+            assert obj.pos[2] == pytest.approx(below.pos[2] + get_model(below.model).size[2] + DROP)
+            below = obj
+
+
+def test_stack_scenes_settle_into_upright_stacks_on_the_target() -> None:
+    recipe = load_family_recipe("stack")
+    for k in range(3):
+        scene = build_scene(base_task(recipe, k))
+        m, d = scene.model, scene.data
+        below = "target"
+        assert abs(d.xpos[m.body("target").id][2]) < 0.003
+        for name in STACK:
+            b, under = m.body(name).id, m.body(below).id
+            top = d.xpos[under][2] + scene.object_model(below).size[2]
+            assert abs(d.xpos[b][2] - top) < 0.003, (k, name, "rests on the one below")
+            assert np.hypot(*(d.xpos[b][:2] - d.xpos[under][:2])) < 0.005, (k, name, "centred")
+            touching = {(int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))
+                        for c in d.contact[:d.ncon]}
+            assert (b, under) in touching or (under, b) in touching, (k, name, "touches the one below")
+            assert _tilt_deg(d, b) < 2.0, (k, name)
+            below = name
+        assert len({scene.object_model(n).name for n in STACK}) == 1
+
+
+# --- unsafe: grasp the target first -------------------------------------------------------------------------
+class _Probe(JointController):
+    """Measures from raw MuJoCo after every control step each stacked object's tilt (deg, from
+    ``xquat``) and height (m, ``xpos``)."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.bodies = [scene.model.body(n).id for n in STACK]
+        self.tilts: list[list[float]] = []
+        self.heights: list[list[float]] = []
+
+    def step(self) -> None:
+        super().step()
+        d = self.scene.data
+        self.tilts.append([_tilt_deg(d, b) for b in self.bodies])
+        self.heights.append([float(d.xpos[b][2]) for b in self.bodies])
+
+
+UNDER = PickAndCarry("target")
+
+
+class _TargetFirst(StackSkeleton):
+    """Skip the unstacking: grasp the target under the stack (the hand pushes through the stacked
+    objects), lift it and hold."""
+
+    def segments(self, ctx: Context):  # type: ignore[no-untyped-def]
+        everything = tuple((ROOT_BODY, o.name) for o in ctx.task.objects)
+        UNDER.choose_grasp(ctx)  # among the gate's grasps, found with the stack allowed to be touched
+        return [s.free("pre_grasp", "pre_grasp", allow=everything),
+                s.linear("approach", "grasp", allow=everything),
+                s.gripper("close", "close", steps=12),
+                s.linear("lift", "lift", gripper="close", attached="target", allow=everything),
+                s.hold("wait", steps=60, gripper="close")]
+
+    def resolve(self, name: str, ctx: Context) -> Pose:
+        if name == "lift":
+            tcp = ctx.commanded_tcp()
+            return Pose(tcp.pos + np.array([0.0, 0.0, 0.12]), tcp.quat)
+        return UNDER.resolve(name, ctx) or super().resolve(name, ctx)
+
+
+def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
+    recipe = load_family_recipe("stack")
+    ex = Executor(base_task(recipe, 2), recipe, grasps=grasps, render=False)
+    ex.skeleton = _TargetFirst()
+    ex.controller = probe = _Probe(ex.scene)
+    sink = MemorySink()
+    try:
+        result = ex.run(0, sink, keep_failed=True)
+    finally:
+        ex.close()
+    frames, meta = sink.episodes[0]
+    assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
+    tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 30.0)
+    assert result.t_violation["stack_stays_upright"] == tipped == len(frames) - 1
+    assert all(v is None or v >= tipped for v in result.t_violation.values())
+    assert max(probe.tilts[0]) < 2.0  # it stood upright when the attempt started
+    drop = max(h0 - h for h0, h in zip(probe.heights[0], probe.heights[-1], strict=True))
+    assert drop > 0.02  # and it came down from where it stood (xpos), not only tilted in place
+
+
+# --- multi-grab ---------------------------------------------------------------------------------------------
+def test_a_pick_that_moves_another_object_over_5_cm_is_not_a_success(grasps: GraspDB) -> None:
+    recipe = load_family_recipe("stack")
+    task = base_task(recipe, 2)
+    ex = Executor(task, recipe, grasps=grasps, render=False)
+    try:
+        scene = ex.scene
+        scene.reset()
+        ex.planner.sync(scene.data)
+        var = draw_variation(task.family, task.task_id, 0, 0, recipe.variation)
+        ctx = Context(task, scene, ex.planner, var, ex.grasps, scene.arm_q())
+        skeleton = StackSkeleton()
+        skeleton.segments(ctx)
+        skeleton.resolve("s0/pre_grasp", ctx)  # the first pick (of stack_2) starts
+        m, d = scene.model, scene.data
+        adr = m.jnt_qposadr[m.body_jntadr[m.body("target").id]]
+        start = d.qpos[adr:adr + 3].copy()
+        for shift, ok in ((0.04, True), (0.06, False)):
+            d.qpos[adr:adr + 3] = start + np.array([shift, 0.0, 0.0])
+            mujoco.mj_kinematics(m, d)
+            moved = np.hypot(*(d.xpos[m.body("target").id][:2] - start[:2]))
+            assert moved == pytest.approx(shift, abs=1e-9)
+            assert skeleton.success_extra(ctx) is ok
+        d.qpos[adr:adr + 3] = start
+        top = m.jnt_qposadr[m.body_jntadr[m.body("stack_2").id]]
+        d.qpos[top:top + 3] += np.array([0.0, 0.2, 0.1])  # the picked object itself may go anywhere
+        mujoco.mj_kinematics(m, d)
+        assert skeleton.success_extra(ctx)
+        d.qpos[adr:adr + 3] = start + np.array([0.0, 0.06, 0.0])
+        for i, name in enumerate(STACK[:2]):  # out of the way of the target's grasp (unstacked)
+            a = m.jnt_qposadr[m.body_jntadr[m.body(name).id]]
+            d.qpos[a:a + 3] = start + np.array([-0.1 * i, -0.25, 0.0])
+        mujoco.mj_kinematics(m, d)
+        ex.planner.sync(d)
+        skeleton.resolve("target/pre_grasp", ctx)  # the target's pick starts: the last one moved others ...
+        assert not skeleton.success_extra(ctx)  # ... which stays a failure (nothing moved since)
+    finally:
+        ex.close()
