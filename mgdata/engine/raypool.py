@@ -123,10 +123,13 @@ class RayAttemptPool:
         options: dict[str, Any] = {"runtime_env": {"env_vars": env}, "include_dashboard": False,
                                    "log_to_driver": False, "configure_logging": False}
         if not ray.is_initialized():
-            if address == LOCAL:
-                ray.init(num_cpus=workers, object_store_memory=OBJECT_STORE_BYTES, **options)
-            else:
-                ray.init(address=address, **options)
+            try:
+                if address == LOCAL:
+                    ray.init(num_cpus=workers, object_store_memory=OBJECT_STORE_BYTES, **options)
+                else:
+                    ray.init(address=address, **options)
+            except Exception as err:  # Ray raises ConnectionError, ValueError, RuntimeError …
+                raise WorkerError(f"--ray {address}: cannot start or reach Ray ({err})") from None
             self._started = True
         actor = ray.remote(num_cpus=1, max_restarts=0)(NodeWorker)
         self._actors = [actor.remote(config) for _ in range(workers)]
