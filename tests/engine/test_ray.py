@@ -63,3 +63,13 @@ def test_a_node_that_renders_differently_is_refused(tmp_path: Path) -> None:
     finally:
         ray.shutdown()
     assert not (tmp_path / "ds" / "data").exists()
+
+
+def test_ray_takes_an_optional_address() -> None:
+    from mgdata.cli import fill_optional_values
+
+    assert fill_optional_values(["generate", "--ray"]) == ["generate", "--ray", "local"]
+    assert fill_optional_values(["generate", "--ray", "--workers", "2"]) == \
+        ["generate", "--ray", "local", "--workers", "2"]
+    assert fill_optional_values(["generate", "--ray", "head:6379", "--n", "4"]) == \
+        ["generate", "--ray", "head:6379", "--n", "4"]
