@@ -64,11 +64,28 @@ def _register_all() -> None:
         importlib.import_module(name).register(app)
 
 
+OPTIONAL_VALUES = {"--ray": "local"}
+"""Options whose value may be left out (``--ray`` or ``--ray ADDRESS``), with the value that stands for it;
+typer has no optional-value options, so :func:`main` fills it in."""
+
+
+def fill_optional_values(argv: list[str]) -> list[str]:
+    """``argv`` with the stand-in value after each :data:`OPTIONAL_VALUES` option given without one."""
+    out: list[str] = []
+    for k, arg in enumerate(argv):
+        out.append(arg)
+        nxt = argv[k + 1] if k + 1 < len(argv) else None
+        if arg in OPTIONAL_VALUES and (nxt is None or nxt.startswith("-")):
+            out.append(OPTIONAL_VALUES[arg])
+    return out
+
+
 def main() -> None:
     """Console-script entry point: run the app, turning user errors into one line and exit status 2."""
     _register_all()
     try:
-        app()  # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
+        # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
+        app(args=fill_optional_values(sys.argv[1:]))
     except MgdataError as err:
         print_error(err)
         sys.exit(2)

@@ -112,6 +112,11 @@ def register(app: typer.Typer) -> None:
         shard: Annotated[str | None, typer.Option(
             help="Generate shard i of N ('i/N', with --per-task): tasks i, i+N, …; join with mgdata merge.")]
         = None,
+        ray: Annotated[str | None, typer.Option(
+            "--ray", metavar="[ADDRESS]",
+            help="Run the attempts on Ray (the optional ray extra of mgdata): --workers actors on a "
+                 "private local instance, or on the cluster at ADDRESS; nodes that would not reproduce "
+                 "this machine's bytes are refused.")] = None,
         render_after: Annotated[bool, typer.Option(
             "--render-after/--render-during",
             help="Render only the recorded episodes, after the gate, from their physics states (same "
@@ -133,7 +138,8 @@ def register(app: typer.Typer) -> None:
                           tasks=(task,) if task is not None else parse_ids(tasks),
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
-                          render_after=render_after, per_task=per_task, shard=parse_shard(shard))
+                          render_after=render_after, per_task=per_task, shard=parse_shard(shard),
+                          ray=ray)
         console = plain_console()
         if family == ALL:
             views: list[ProgressView] = []

@@ -32,6 +32,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
@@ -54,6 +55,9 @@ from mgdata.sim.config import SIM_TOML
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import Recipe
+
+if TYPE_CHECKING:
+    from mgdata.engine.raypool import RayAttemptPool
 
 STATE_FILE = "meta/mgdata_generate.json"
 
@@ -83,6 +87,8 @@ class GenerateJob:
         render_after: render only the episodes that are recorded, after their attempt, from their physics
             states (two passes; the default), instead of every step of every attempt while it runs; the
             dataset's bytes are the same either way.
+        ray: run the attempts on Ray actors instead of local processes (``--ray [ADDRESS]``): ``"local"``
+            for a private local instance, else a cluster address; ``workers`` actors, the same bytes.
     """
 
     family: str
@@ -99,6 +105,7 @@ class GenerateJob:
     render_after: bool = True
     per_task: int | None = None
     shard: tuple[int, int] | None = None
+    ray: str | None = None
 
 
 def failed_path(out: Path) -> Path:
@@ -342,13 +349,21 @@ class Quota:
         return self.per_task is not None and self.missing == 0
 
 
+def _pool(job: GenerateJob, config: WorkerConfig) -> AttemptPool | RayAttemptPool:
+    if job.ray is None:
+        return AttemptPool(config, job.workers)
+    from mgdata.engine.raypool import RayAttemptPool
+
+    return RayAttemptPool(config, job.workers, job.ray)
+
+
 def _loop(job: GenerateJob, cursor: DrawCursor, quota: Quota, config: WorkerConfig, budget: int,
           writer: DatasetWriter, failed: DatasetWriter | None, state: RunState, state_path: Path,
           summary: RunSummary, start: float, on_attempt: Callable[[RunSummary], None] | None) -> None:
     submitted = 0
     shutil.rmtree(config.stage_dir, ignore_errors=True)
     try:
-        with AttemptPool(config, job.workers) as pool:
+        with _pool(job, config) as pool:
             while True:
                 while pool.in_flight < pool.capacity and submitted < budget:
                     nxt = cursor.take(skip=quota.full)

@@ -3,6 +3,10 @@
 Every episode segment is encoded on its own, starting with a keyframe and with no B-frames (``dts ==
 pts``), so segments with the same settings can be concatenated into one mp4 by copying packets. Files are
 written with ``fflags=+bitexact`` and a single encoder thread, so the same frames give the same bytes.
+
+On a CPU with AVX-512, x264 is kept to its AVX2 code (``asm=…``): with its AVX-512 code the same frames and
+settings gave different bytes from encode to encode (the first frame's QP chosen by the macroblock tree
+varied, e.g. 22 or 11, for 32² wrist frames; never with AVX2 or with ``mbtree=0``; docs/scale.md).
 """
 
 from __future__ import annotations
@@ -18,12 +22,16 @@ import av
 import av.error
 import numpy as np
 
+from mgdata.cpu import has_avx512
 from mgdata.errors import DatasetError
 
 _ENCODERS = {"h264": "libx264", "av1": "libsvtav1"}
 _DEFAULT_CRF = {"h264": 23, "av1": 30}
 _DEFAULT_PRESET = {"h264": "veryfast", "av1": "12"}
 _MUX_OPTIONS = {"fflags": "+bitexact"}
+_X264_AVX2 = "MMX2,SSE2Fast,SSSE3,SSE4.2,AVX,FMA3,BMI2,AVX2"
+"""x264's instruction sets without AVX-512 (every AVX-512 CPU has these); x264 asm is otherwise bit-exact
+across instruction sets, so this changes speed (~10 % slower encode at 256²), not the bytes."""
 
 
 @dataclass(frozen=True)
@@ -69,7 +77,9 @@ class VideoSettings:
         if self.codec == "h264":
             # no B-frames (dts == pts: segments concatenate); diamond search + subme 1: ~15 % faster than
             # plain veryfast for ~10 % more bytes (benchmarks/bench_export.py --sweep)
-            opts.update({"bf": "0", "threads": "1", "x264-params": "me=dia:subme=1"})
+            # asm: x264's AVX-512 path is not deterministic (module docstring)
+            params = "me=dia:subme=1" + (f":asm={_X264_AVX2}" if has_avx512() else "")
+            opts.update({"bf": "0", "threads": "1", "x264-params": params})
         else:
             opts["svtav1-params"] = "lp=1"
         return opts

@@ -123,6 +123,38 @@ def test_an_interrupted_render_continues_to_the_same_bytes(source: Path, tmp_pat
         {k: v for k, v in tree_digest(whole).items() if k != info}
 
 
+_ENCODE_LOOP = """
+import hashlib, sys
+from pathlib import Path
+import numpy as np
+from mgdata.record.reader import DatasetReader
+from mgdata.record.video import VideoEncoder, VideoSettings, decode
+reader, out = DatasetReader(Path(sys.argv[1])), Path(sys.argv[2])
+frames = np.ascontiguousarray(reader.frames(0, "wrist")[:, 16:48, 16:48])
+video = next(Path(sys.argv[1]).glob("videos/observation.images.wrist/*/*.mp4"))
+for _ in range(12):
+    decode(video, 0, 5, reader.schema.fps)
+    enc = VideoEncoder(out, 32, 32, reader.schema.fps, VideoSettings())
+    for frame in frames:
+        enc.add(frame)
+    enc.close()
+    print(hashlib.sha256(out.read_bytes()).hexdigest())
+"""
+
+
+def test_the_same_frames_encode_to_the_same_bytes_in_every_process(source: Path, tmp_path: Path) -> None:
+    """The cause of the flaky interrupted render: with its AVX-512 code, x264 chose other QPs for the same
+    32² wrist frames in some processes and some encodes (5 of 6 processes gave a second digest). Four
+    processes, twelve encodes each (after a decode, as a resumed render does), must agree."""
+    digests: set[str] = set()
+    for k in range(4):
+        proc = subprocess.run([sys.executable, "-c", _ENCODE_LOOP, str(source), str(tmp_path / f"{k}.mp4")],
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        digests.update(proc.stdout.split())
+    assert len(digests) == 1, digests
+
+
 def _render(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([*MGDATA, "render", *args], capture_output=True, text=True, timeout=300)
 
