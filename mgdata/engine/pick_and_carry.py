@@ -125,12 +125,13 @@ class PickAndCarry:
         p = ctx.params
         held = {"gripper": "close", "attached": self.obj, "riders": self.riders,
                 "speed": float(p["carry_speed"])}
-        carry = (s.linear("carry", "over_goal", orientation="slerp", **held) if self.level  # type: ignore[arg-type]
-                 else s.free("carry", "over_goal", **held))  # type: ignore[arg-type]
+        n = self.name
+        carry = (s.linear(n("carry"), n("over_goal"), orientation="slerp", **held)  # type: ignore[arg-type]
+                 if self.level else s.free(n("carry"), n("over_goal"), **held))  # type: ignore[arg-type]
         return [
             carry,
-            s.linear("into_goal", "goal", **held),  # type: ignore[arg-type]
-            s.hold("hold", steps=int(p["goal_hold_steps"]), gripper="close"),
+            s.linear(n("into_goal"), n("goal"), **held),  # type: ignore[arg-type]
+            s.hold(n("hold"), steps=int(p["goal_hold_steps"]), gripper="close"),
         ]
 
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:

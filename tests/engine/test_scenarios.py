@@ -212,10 +212,15 @@ def test_language_variant_is_the_same_scene_with_a_rewritten_prompt(clutter) -> 
 
 
 def _names(recipe, prompt: str) -> list[str]:  # type: ignore[no-untyped-def]
-    regex = "".join(
-        re.escape(lit) + (f"(?P<{f}>.+?)" if f else "")
-        for lit, f, _, _ in string.Formatter().parse(recipe.prompt)
-    )
+    """The object names filling the recipe's prompt template (a field used twice must match the same name)."""
+    seen: set[str] = set()
+    parts = []
+    for lit, f, _, _ in string.Formatter().parse(recipe.prompt):
+        parts.append(re.escape(lit))
+        if f:
+            parts.append(f"(?P={f})" if f in seen else f"(?P<{f}>.+?)")
+            seen.add(f)
+    regex = "".join(parts)
     return list(re.fullmatch(regex, prompt).groupdict().values())  # type: ignore[union-attr]
 
 
