@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 import pytest
 import rawdata
+from probed import probed_attempt
 
 from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
@@ -142,15 +143,7 @@ def _bottle_in_front_of_the_drawer(task):  # type: ignore[no-untyped-def]
 def test_opening_the_drawer_into_the_bottle_is_unsafe_at_the_tipping_step(grasps: GraspDB) -> None:
     recipe = load_family_recipe("cabinet")
     task = _bottle_in_front_of_the_drawer(base_task(recipe, 1))
-    ex = Executor(task, recipe, grasps=grasps, render=False)
-    ex.skeleton = _OpenRightAway()
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    try:
-        result = ex.run(0, sink, keep_failed=True)
-    finally:
-        ex.close()
-    frames, meta = sink.episodes[0]
+    result, frames, meta, probe = probed_attempt(task, recipe, grasps, _OpenRightAway(), _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
     tipped = next(t for t, tilt in enumerate(probe.tilt, start=1) if tilt > 45.0)
     assert result.t_violation["obstacle_stays_upright"] == tipped == len(frames) - 1

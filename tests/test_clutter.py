@@ -15,16 +15,15 @@ import dataclasses
 import numpy as np
 import pytest
 import rawdata
+from probed import probed_attempt
 
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
-from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
-from mgdata.record.episode import MemorySink
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.spec import SafetySpec
@@ -111,24 +110,11 @@ class _SweepThroughObstacle(ClutterSkeleton):
         return super().resolve(name, ctx)
 
 
-def _probed_attempt(task, recipe, grasps: GraspDB, skeleton: ClutterSkeleton):  # type: ignore[no-untyped-def]
-    """Draw 0 of ``task`` played by ``skeleton``, kept whatever happens, with the raw probe attached."""
-    ex = Executor(task, recipe, grasps=grasps, render=False)
-    ex.skeleton = skeleton
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    try:
-        result = ex.run(0, sink, keep_failed=True)
-    finally:
-        ex.close()
-    frames, meta = sink.episodes[0]
-    return result, frames, meta, probe
-
 
 def test_knocking_over_a_fragile_is_unsafe_at_the_tipping_step(grasps: GraspDB) -> None:
     recipe = load_family_recipe("clutter_dry")
     sweep = _SweepThroughObstacle()
-    result, frames, meta, probe = _probed_attempt(base_task(recipe, 1), recipe, grasps, sweep)
+    result, frames, meta, probe = probed_attempt(base_task(recipe, 1), recipe, grasps, sweep, _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 45.0)
     assert result.t_violation["obstacles_stay_upright"] == tipped == len(frames) - 1
@@ -163,7 +149,7 @@ def test_pouring_the_liquid_out_is_a_spill_at_the_step_it_leaves(grasps: GraspDB
     spec = SafetySpec(spec.name, kept, spec.propositions)
     task = dataclasses.replace(base_task(recipe, 0), safety=spec)
     recipe = dataclasses.replace(recipe, spec=spec)
-    result, frames, _, probe = _probed_attempt(task, recipe, grasps, _PourAfterLift())
+    result, frames, _, probe = probed_attempt(task, recipe, grasps, _PourAfterLift(), _Probe)
     assert result.stage == "unsafe", (result.stage, result.reason)
     spilled = next(t for t, inside in enumerate(probe.inside, start=1) if inside < 0.85)
     t_v = result.t_violation["liquid_not_spilled"]

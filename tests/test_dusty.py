@@ -20,16 +20,15 @@ import mujoco
 import numpy as np
 import pytest
 import rawdata
+from probed import probed_attempt
 
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
-from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
-from mgdata.record.episode import MemorySink
 from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
@@ -111,15 +110,7 @@ class _Probe(JointController):
 
 
 def _probed(recipe: Recipe, grasps: GraspDB, skeleton: DustySkeleton):  # type: ignore[no-untyped-def]
-    ex = Executor(base_task(recipe, TASK), recipe, grasps=grasps, render=False)
-    ex.skeleton = skeleton
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    try:
-        result = ex.run(0, sink, keep_failed=True)
-    finally:
-        ex.close()
-    frames, _ = sink.episodes[0]
+    result, frames, _, probe = probed_attempt(base_task(recipe, TASK), recipe, grasps, skeleton, _Probe)
     return result, frames, probe
 
 

@@ -25,16 +25,15 @@ import pytest
 import rawdata
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
+from probed import probed_attempt
 
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
-from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
-from mgdata.record.episode import MemorySink
 from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.predicates import Contacts, compile_check
@@ -212,15 +211,8 @@ class _Probe(JointController):
 
 def test_lifting_the_container_before_capping_it_is_unsafe_when_it_leaves_the_table(recipe) -> None:
     task = base_task(recipe, CANISTER_TASK)
-    ex = Executor(task, recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
-    ex.skeleton = _LiftFirst()
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    try:
-        result = ex.run(0, sink, keep_failed=True)
-    finally:
-        ex.close()
-    frames, meta = sink.episodes[0]
+    result, frames, meta, probe = probed_attempt(task, recipe, GraspDB.load_dir(grasps_dir()), _LiftFirst(),
+                                                 _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
     left = next(t for t, off in enumerate(probe.off, start=1) if off)
     assert probe.lid_apart[left - 1] > 0.05  # the lid still lies on the table, apart

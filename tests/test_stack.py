@@ -12,6 +12,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from probed import probed_attempt
 
 from mgdata.engine import segment as s
 from mgdata.engine.context import Context
@@ -23,7 +24,6 @@ from mgdata.engine.variation import draw_variation
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
-from mgdata.record.episode import MemorySink
 from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import ROOT_BODY
@@ -127,15 +127,7 @@ class _TargetFirst(StackSkeleton):
 
 def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
     recipe = load_family_recipe("stack")
-    ex = Executor(base_task(recipe, 2), recipe, grasps=grasps, render=False)
-    ex.skeleton = _TargetFirst()
-    ex.controller = probe = _Probe(ex.scene)
-    sink = MemorySink()
-    try:
-        result = ex.run(0, sink, keep_failed=True)
-    finally:
-        ex.close()
-    frames, meta = sink.episodes[0]
+    result, frames, meta, probe = probed_attempt(base_task(recipe, 2), recipe, grasps, _TargetFirst(), _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 30.0)
     assert result.t_violation["stack_stays_upright"] == tipped == len(frames) - 1
