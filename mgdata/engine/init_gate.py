@@ -92,7 +92,8 @@ def base_tasks(recipe: Recipe, grasps: Path | None = None) -> tuple[TaskSpec, ..
 
 
 @cache
-def _grasp_db(folder: Path) -> GraspDB:
+def cached_grasp_db(folder: Path) -> GraspDB:
+    """The grasp database in ``folder``, loaded once per process (shared by the gate and the scenarios)."""
     return GraspDB.load_dir(folder)
 
 
@@ -108,7 +109,7 @@ def _gated(recipe: Recipe, task_id: int, grasps: Path) -> TaskSpec:
     for draw in range(recipe.tasks.max_draws):
         try:
             task = draw_task(recipe, task_id, draw)
-            facts = check_initial_state(task, recipe, _grasp_db(grasps))
+            facts = check_initial_state(task, recipe, cached_grasp_db(grasps))
         except (LayoutRejected, Infeasible) as why:
             rule = why.rule
             failures[rule] += 1

@@ -40,7 +40,7 @@ import numpy as np
 
 from mgdata import __version__
 from mgdata.atomic import write_bytes_atomic, write_text_atomic
-from mgdata.engine.init_gate import Infeasible, _grasp_db, base_task, check_initial_state
+from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
 from mgdata.errors import DatasetError, RecipeError, SceneError
 from mgdata.paths import grasps_dir
 from mgdata.record.physics import STATE_SPEC, model_bytes, model_from_bytes, physics_state, set_physics_state
@@ -72,7 +72,7 @@ def variant(
     Raises:
         RecipeError: unknown condition, or no location proposal passed the gate within ``tries``.
     """
-    grasps = _grasp_db(grasps_dir())
+    grasps = cached_grasp_db(grasps_dir())
     if condition == "base":
         task, provenance = base, {"kind": "base"}
     elif condition == "target":

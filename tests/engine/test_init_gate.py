@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from mgdata.engine.init_gate import Infeasible, _grasp_db, base_task, check_initial_state
+from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.paths import grasps_dir
@@ -41,7 +41,7 @@ def test_an_object_starting_on_the_floor_fails_the_safe_start(jar) -> None:  # t
     scene = build_scene(task)
     assert scene.object_pose("jar")[0][2] < FLOOR_Z + 0.05  # physically on the floor after the settle
     with pytest.raises(Infeasible) as err:
-        check_initial_state(task, jar, _grasp_db(grasps_dir()))
+        check_initial_state(task, jar, cached_grasp_db(grasps_dir()))
     assert err.value.rule == "init.safe" and "jar_not_dropped" in err.value.why
 
 
@@ -50,7 +50,7 @@ def test_a_jar_out_of_reach_fails_the_reach_check(jar) -> None:  # type: ignore[
     far = (1.0, 0.0, 0.0)  # 1 m in front of the base: beyond the Panda's ~0.85 m reach at table height
     task = _moved(_moved(task, "jar", far), "food", (far[0], far[1], task.object("food").pos[2]))
     with pytest.raises(Infeasible) as err:
-        check_initial_state(task, jar, _grasp_db(grasps_dir()))
+        check_initial_state(task, jar, cached_grasp_db(grasps_dir()))
     assert err.value.rule == "reach.grasps" and "0 of the" in err.value.why
 
 
@@ -64,7 +64,7 @@ def test_without_grasps_no_draw_passes_and_the_error_names_the_rule(jar, tmp_pat
 
 def test_the_accepted_draw_is_the_first_that_passes() -> None:
     recipe = load_family_recipe("clutter_liquid")
-    db = _grasp_db(grasps_dir())
+    db = cached_grasp_db(grasps_dir())
     for k in (0, 1):
         task = base_task(recipe, k)
         facts = check_initial_state(draw_task(recipe, k, task.draw), recipe, db)
@@ -76,6 +76,6 @@ def test_the_accepted_draw_is_the_first_that_passes() -> None:
 
 def test_gated_tasks_are_deterministic(jar) -> None:  # type: ignore[no-untyped-def]
     a = base_task(jar, 2)
-    b = check_initial_state(draw_task(jar, 2, a.draw), jar, _grasp_db(grasps_dir()))
+    b = check_initial_state(draw_task(jar, 2, a.draw), jar, cached_grasp_db(grasps_dir()))
     assert tuple(b["grasps"]) == tuple(a.gate["grasps"])
     assert isinstance(a.objects[0], ObjectPlacement) and np.isfinite(a.goal.radius)
