@@ -8,7 +8,8 @@ as the CLI, the shipped recipe: five cameras at 256², H.264) into a fresh datas
   of every worker process, from ``getrusage(RUSAGE_SELF)`` + ``getrusage(RUSAGE_CHILDREN)``: what the run
   really consumed, rendering and encoding threads included) and per **wall-core-hour** (wall time × workers:
   what the run occupied). The target (>= 150) applies to the lower of the two;
-- the time split (IK/planning, physics, rendering + labelling, encoding, writing), summed over workers;
+- the time split (IK/planning, physics, rendering + labelling, encoding, writing, setup), summed over workers,
+  and the wall time × workers over rendering + encoding + physics (issue 16: ≤ 1.15× at one worker);
 - the failure stages;
 - the speed-up of the largest worker count over one worker (target >= 1.7× for 2 workers);
 - with ``--render after during``: both ways of rendering (``--render-after``, the default: attempts run
@@ -103,6 +104,9 @@ def report(m: Measured, family: str, workers: int, render: str) -> None:
     split = ", ".join(f"{p} {getattr(summary.timings, p):.1f} s ({getattr(summary.timings, p) / total:.0%})"
                       for p in PHASES)
     print(f"time split (summed over workers): {split}")
+    core = sum(getattr(summary.timings, p) for p in ("rendering", "encoding", "physics"))
+    print(f"wall × workers / (rendering + encoding + physics) = {summary.wall * workers:.1f} / {core:.1f} s"
+          f" = {summary.wall * workers / max(core, 1e-9):.2f}×  [target ≤ 1.15× at 1 worker]")
     print(f"failures: {dict(summary.stages) or 'none'}")
 
 

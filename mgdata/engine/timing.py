@@ -1,4 +1,4 @@
-"""Where an attempt's time goes: IK/planning, physics, rendering (+ labelling), encoding, writing.
+"""Where an attempt's time goes: IK/planning, physics, rendering (+ labelling), encoding, writing, setup.
 
 Wall-clock time is measured for the summary and the benchmark only; it never influences what is generated.
 """
@@ -10,18 +10,21 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
 
-PHASES: tuple[str, ...] = ("planning", "physics", "rendering", "encoding", "writing")
+PHASES: tuple[str, ...] = ("planning", "physics", "rendering", "encoding", "writing", "setup")
 
 
 @dataclass
 class Timings:
-    """Seconds spent per phase (``rendering`` includes labelling and monitoring, which cost ~0.1 ms/step)."""
+    """Seconds spent per phase (``rendering`` includes labelling and monitoring, which cost ~0.1 ms/step;
+    ``setup`` is building a task's scene, executor and cameras the first time a worker meets the task, the
+    initial-state gate's IK being ``planning``)."""
 
     planning: float = 0.0
     physics: float = 0.0
     rendering: float = 0.0
     encoding: float = 0.0
     writing: float = 0.0
+    setup: float = 0.0
 
     @contextmanager
     def measure(self, phase: str) -> Iterator[None]:

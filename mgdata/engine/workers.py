@@ -39,6 +39,7 @@ from mgdata.engine.deferred import DeferredRenderSink
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.engine.skeleton import load_family_recipe
+from mgdata.engine.timing import Timings
 from mgdata.errors import WorkerError
 from mgdata.grasps.db import GraspDB
 from mgdata.record.episode import EpisodeSink
@@ -85,25 +86,29 @@ class Worker:
         self._executors: collections.OrderedDict[int, tuple[Executor, CameraRig | None]] = \
             collections.OrderedDict()
 
-    def _executor(self, task_id: int) -> tuple[Executor, CameraRig | None]:
-        """The task's executor and, when rendering after the gate, the rig that renders its episodes."""
+    def _executor(self, task_id: int, timings: Timings) -> tuple[Executor, CameraRig | None]:
+        """The task's executor and, when rendering after the gate, the rig that renders its episodes (the
+        time a new one takes goes into ``timings``)."""
         if task_id in self._executors:
             self._executors.move_to_end(task_id)
             return self._executors[task_id]
         while len(self._executors) >= EXECUTOR_CACHE:
             self._close(*self._executors.popitem(last=False)[1])
         after = self.config.render_after
-        task = base_task(self.recipe, task_id, self.config.grasps_dir)
-        ex = Executor(task, self.recipe, grasps=self.grasps, base_seed=self.config.base_seed,
-                      render=not after)
-        rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) if after else None
+        with timings.measure("planning"):  # the initial-state gate's IK (once per task and process)
+            task = base_task(self.recipe, task_id, self.config.grasps_dir)
+        with timings.measure("setup"):
+            ex = Executor(task, self.recipe, grasps=self.grasps, base_seed=self.config.base_seed,
+                          render=not after)
+            rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) if after else None
         self._executors[task_id] = (ex, rig)
         return ex, rig
 
     def run(self, task_id: int, draw: int) -> AttemptDone:
         path = self.config.stage_dir / f"task{task_id:04d}-draw{draw:06d}"
         stager = EpisodeStager(path, self.schema, self.config.video)
-        ex, rig = self._executor(task_id)
+        setup = Timings()
+        ex, rig = self._executor(task_id, setup)
         deferred = DeferredRenderSink(stager, rig) if rig is not None else None
         sink: EpisodeSink = deferred if deferred is not None else stager
         try:
@@ -115,6 +120,7 @@ class Worker:
             spent = deferred.timings
             result.timings.writing -= spent.total
             result.timings.add(spent)
+        result.timings.add(setup)
         return AttemptDone(result, path if stager.done else None)
 
     @staticmethod

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import mujoco
@@ -80,3 +82,26 @@ def test_finger_pads_get_the_configured_contact_stiffness() -> None:
         robot.GripperConfig(finger_solref=(0.0, 1.0))
     with pytest.raises(RecipeError, match="finger_solmix"):
         robot.GripperConfig(finger_solmix=0.0)
+
+
+def _model_bytes(model: mujoco.MjModel, tmp_path: Path, name: str) -> bytes:
+    path = tmp_path / name
+    mujoco.mj_saveModel(model, str(path), None)
+    return path.read_bytes()
+
+
+def test_each_load_is_an_independent_copy_that_compiles_like_a_fresh_process(tmp_path: Path) -> None:
+    """The spec is loaded once per process and copied: what one scene does to its copy never reaches the
+    next, and a copy compiles to the bytes a fresh interpreter's first load gives."""
+    first = robot.load_panda_spec(far_lod=0.05)
+    first.body("hand").pos = [9.0, 9.0, 9.0]
+    first.worldbody.add_geom(name="intruder", size=[0.1, 0.1, 0.1])
+    again = robot.load_panda_spec(far_lod=0.05).compile()
+    with pytest.raises(KeyError):
+        again.geom("intruder")
+    assert not np.allclose(again.body("hand").pos, [9.0, 9.0, 9.0])
+    fresh = tmp_path / "fresh.mjb"
+    code = ("import mujoco, sys; from mgdata.sim import robot; "
+            f"mujoco.mj_saveModel(robot.load_panda_spec(far_lod=0.05).compile(), {str(fresh)!r}, None)")
+    subprocess.run([sys.executable, "-c", code], check=True)
+    assert _model_bytes(again, tmp_path, "again.mjb") == fresh.read_bytes()
