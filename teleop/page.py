@@ -81,7 +81,8 @@ class OperatorPage:
             raise OutputError(f"cannot serve the operator page on {host}:{port}: {err.strerror}; choose "
                               "another --http-port") from err
         self._httpd.daemon_threads = True
-        self._thread = threading.Thread(target=self._httpd.serve_forever, name="operator-page", daemon=True)
+        self._thread = threading.Thread(target=self._httpd.serve_forever, args=(0.1,), name="operator-page",
+                                        daemon=True)
         self._thread.start()
 
     @property
