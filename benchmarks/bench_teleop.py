@@ -163,6 +163,16 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
         os.sched_setaffinity(0, {sorted(all_cores)[0]})
         mapper = mapper_for("gello", text, config)
         bus = ServoBus("dynamixel", emu.port, mapper.motors)
+        read_times: list[tuple[float, float]] = []  # (start, wall s) of every leader read
+        read_positions = bus.read_positions
+
+        def timed_read() -> np.ndarray:
+            t = time.perf_counter()
+            ticks = read_positions()
+            read_times.append((t, time.perf_counter() - t))
+            return ticks
+
+        bus.read_positions = timed_read  # type: ignore[method-assign]
         reader = LeaderReader(bus, config.leader.reader_hz, stale_s=2.0)
         session: TeleopSession | None = None
         shot_at = steps * 3 // 4
@@ -271,6 +281,10 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     print(f"session loop: {n} ticks in {wall:.1f} s ({n / wall:.1f} Hz, target 20 Hz) on one core, "
           f"{session.skipped} slots skipped after overruns; meanwhile the leader was read at {rate:.0f} Hz "
           f"(target >= 100; {rate_life:.0f} Hz over the reader's whole life)")
+    t0, t1 = float(box["t0"]), float(box["t0"]) + wall  # type: ignore[arg-type]
+    reads = [w * 1000 for t, w in read_times if t0 <= t <= t1]
+    print(f"  leader reads meanwhile (ms of wall time each): p50 {_pct(reads, 50):.1f}  "
+          f"p95 {_pct(reads, 95):.1f}  max {max(reads, default=float('nan')):.1f}")
     print(f"  lateness against the absolute schedule (ms): p50 {_pct(late, 50):.1f}  "
           f"p99 {_pct(late, 99):.1f}  max {late.max():.1f} (target p99 <= 5)")
     print(f"  step compute (ms): p50 {_pct(busy, 50):.1f}  p99 {_pct(busy, 99):.1f}  max {busy.max():.1f} "
