@@ -284,7 +284,8 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     t0, t1 = float(box["t0"]), float(box["t0"]) + wall  # type: ignore[arg-type]
     reads = [w * 1000 for t, w in read_times if t0 <= t <= t1]
     print(f"  leader reads meanwhile (ms of wall time each): p50 {_pct(reads, 50):.1f}  "
-          f"p95 {_pct(reads, 95):.1f}  max {max(reads, default=float('nan')):.1f}")
+          f"p95 {_pct(reads, 95):.1f}  max {max(reads, default=float('nan')):.1f}; "
+          f"{bus.read_errors} sync reads failed and were retried (over the whole run)")
     print(f"  lateness against the absolute schedule (ms): p50 {_pct(late, 50):.1f}  "
           f"p99 {_pct(late, 99):.1f}  max {late.max():.1f} (target p99 <= 5)")
     print(f"  step compute (ms): p50 {_pct(busy, 50):.1f}  p99 {_pct(busy, 99):.1f}  max {busy.max():.1f} "
