@@ -71,6 +71,7 @@ class OperatorPage:
         self._on_command = on_command
         config = json.dumps({"scenePort": scene_port, "title": title,
                              "buttons": [{"label": lab, "command": c, "key": k} for lab, c, k in buttons]})
+        config = config.replace("<", "\\u003c")  # a title with "</script>" in it stays text
         self._html = _HTML.read_text(encoding="utf-8").replace("/*CONFIG*/null", config).encode()
         self._clients: list[_Client] = []
         self._lock = threading.Lock()

@@ -86,6 +86,17 @@ def test_commands_need_the_header_and_a_known_name(page: tuple[OperatorPage, lis
     assert got == ["record"]
 
 
+def test_the_title_stays_text() -> None:
+    page = OperatorPage("127.0.0.1", _port(), 9999, print, BUTTONS, "</script><script>alert(1)</script>")
+    try:
+        conn = _conn(page)
+        conn.request("GET", "/")
+        body = conn.getresponse().read().decode()
+    finally:
+        page.close()
+    assert "alert(1)" in body and "</script><script>alert" not in body
+
+
 def test_a_busy_port_is_one_clear_error(page: tuple[OperatorPage, list[str]]) -> None:
     port = int(page[0].url.rstrip("/").rsplit(":", 1)[1])
     with pytest.raises(OutputError, match=f"127.0.0.1:{port}.*--http-port"):
