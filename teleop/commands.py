@@ -49,7 +49,8 @@ def teleop(
     view: Annotated[bool, typer.Option(help="Serve the operator view in the browser.")] = True,
     host: Annotated[str, typer.Option(help="Operator view address (127.0.0.1: this machine only).")]
     = "127.0.0.1",
-    http_port: Annotated[int, typer.Option(help="Operator view port.")] = 8080,
+    http_port: Annotated[int, typer.Option(
+        help="Operator page port (viser's 3D view: the next free port above it).")] = 8080,
 ) -> None:
     """Record demonstrations with a leader arm: the same recorder, monitor and gate as generation.
 

@@ -50,14 +50,12 @@ class RetargetConfig:
 class ViewConfig:
     image_every: int = 4
     scene_every: int = 1
-    monitor_every: int = 10
     shadows: bool = False
     environment: bool = False
 
     def __post_init__(self) -> None:
-        if min(self.image_every, self.scene_every, self.monitor_every) < 1:
-            raise RecipeError("[view] image_every, scene_every and monitor_every must be >= 1 "
-                              "(control steps)")
+        if min(self.image_every, self.scene_every) < 1:
+            raise RecipeError("[view] image_every and scene_every must be >= 1 (control steps)")
 
 
 @dataclass(frozen=True)

@@ -84,7 +84,7 @@ def run_live(opts: LiveOptions, say: Callable[[str], None]) -> None:
 
             view = OperatorView(session, opts.host, opts.http_port, config.view)
             session.on_status = view.update
-            say(f"operator view: {view.url}")
+            say(f"operator page: {view.url} (its 3D view: viser on port {view.server.get_port()})")
         if sys.stdin.isatty():
             threading.Thread(target=_keys, args=(session, stop_keys), daemon=True).start()
             say("keys: r record, s stop, m mark done, d discard, t reset task, c clutch, g gripper, q quit")

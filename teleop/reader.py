@@ -22,7 +22,7 @@ class LeaderReader:
     """Reads ``bus`` in a daemon thread (see the module docstring).
 
     Attributes:
-        rate_hz: the measured read rate over the thread's life.
+        rate_hz: the measured read rate over the thread's life; reads: successful reads so far.
     """
 
     def __init__(self, bus: ServoBus, reader_hz: float, stale_s: float) -> None:
@@ -69,6 +69,10 @@ class LeaderReader:
                 time.sleep(delay)
             else:
                 next_t = time.monotonic()
+
+    @property
+    def reads(self) -> int:
+        return self._reads
 
     @property
     def rate_hz(self) -> float:

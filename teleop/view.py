@@ -1,20 +1,22 @@
-"""The operator view in the browser (viser): the scene streamed from the MjModel, the recorded camera views
-and the live monitor, with the session's commands as buttons.
+"""The operator view in the browser: the operator's page (``teleop/page.py``: the live monitor, the buttons
+and hotkeys) with viser's view beside it (the scene streamed from the MjModel and the recorded camera views).
 
 The scene is built once from the model's visual geoms (meshes, boxes, spheres, capsules, cylinders) under one
 frame per body; after each control step the body frames that moved go to ``data.xpos/xquat``. The monitor
-panel shows each constraint's formula and state, a banner at the first violation, engagement, success and the
+shows each constraint's formula and DFA state, a banner at the first violation, engagement, success and the
 gate's streak, and the step number the state belongs to (the benchmark measures its latency in the browser).
-The session's commands are buttons and browser hotkeys (viser commands: the key alone, no modifier).
+It is pushed to the page as its own event stream, not through viser, whose client paces its batches.
+The session's commands are the page's buttons and hotkeys, and viser commands (the same letters) inside the
+3D view.
 
 The control loop only hands a snapshot over (:meth:`OperatorView.update`: the status, a copy of the body
-poses; microseconds): a publisher thread at a lower OS priority pushes the newest snapshot to viser, monitor
-first, and drops the ones it had no time for (a bounded, latest-value handoff), so the browser never slows the
+poses; microseconds): a publisher thread at a lower OS priority sends the newest snapshot, monitor first,
+and drops the ones it had no time for (a bounded, latest-value handoff), so the browser never slows the
 20 Hz loop down and never falls behind it.
 
 Example::
 
-    view = OperatorView(session, host="127.0.0.1", port=8080)
+    view = OperatorView(session, host="127.0.0.1", port=8080)  # the page; viser on port + 1
     session.on_status = view.update
 """
 
@@ -22,7 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import html
+import json
 import os
 import threading
 import time
@@ -33,6 +35,7 @@ import mujoco
 import numpy as np
 
 from teleop.config import ViewConfig, load_teleop_config
+from teleop.page import OperatorPage
 from teleop.sdk import require
 from teleop.session import SessionStatus, TeleopSession
 
@@ -86,22 +89,29 @@ class OperatorView:
     """Serves the operator view of ``session`` (see the module docstring).
 
     Attributes:
-        server: the viser server; ``url``: where to point a browser.
+        page: the operator's page; ``url``: where to point a browser (the page).
+        server: the viser server (``scene_port``, by default ``port + 1``), shown in the page's iframe.
         image_every, scene_every: control steps between camera-image and 3D scene updates
             (``[view]`` in ``recipes/teleop.toml``).
     """
 
     def __init__(self, session: TeleopSession, host: str = "127.0.0.1", port: int = 8080,
-                 config: ViewConfig | None = None) -> None:
+                 config: ViewConfig | None = None, scene_port: int | None = None) -> None:
         viser = require("viser")
         config = config or load_teleop_config().view
         self.session = session
         self.image_every, self.scene_every = config.image_every, config.scene_every
-        self.monitor_every = config.monitor_every
-        self._shown: tuple[str, int] = ("", -config.monitor_every)  # (monitor state, step) last sent
         self.shadows, self.environment = config.shadows, config.environment
-        self.server: Any = viser.ViserServer(host=host, port=port, label="mgdata teleop", verbose=False)
-        self.url = f"http://{host}:{port}/"
+        self.server: Any = viser.ViserServer(host=host, port=port + 1 if scene_port is None else scene_port,
+                                             label="mgdata teleop", verbose=False)  # the next free port
+        job = session.job
+        try:
+            self.page = OperatorPage(host, port, self.server.get_port(), session.command, _BUTTONS,
+                                     f"{job.arm} · {job.family} task {job.task} → {job.out}")
+        except BaseException:
+            self.server.stop()
+            raise
+        self.url = self.page.url
         scene = session.scene
         self._model, self._data = scene.model, scene.data
         self._bodies: dict[int, Any] = {}
@@ -113,7 +123,8 @@ class OperatorView:
         self._stop = False
         self.published = 0  # snapshots pushed to viser
         self.superseded = 0  # snapshots replaced by a newer one before the publisher got to them
-        self.flushed: deque[tuple[int, float]] = deque(maxlen=20_000)  # (step, time.time()) monitor flushed
+        self.flushed: deque[tuple[int, float]] = deque(maxlen=20_000)  # (step, time.time()) monitor sent
+        self._send_monitor(session.status)
         self._thread = threading.Thread(target=self._publish_loop, name="operator-view", daemon=True)
         self._thread.start()
 
@@ -168,14 +179,10 @@ class OperatorView:
     # -- panel ---------------------------------------------------------------------------------------------
     def _build_gui(self, session: TeleopSession) -> None:
         gui = self.server.gui
-        gui.add_markdown(f"**{session.job.arm}** · {session.job.family} task {session.job.task} · "
-                         f"→ `{session.job.out}`")
-        for label, cmd, key in _BUTTONS:
-            button = gui.add_button(f"{label} ({key})")
-            button.on_click(lambda _event, c=cmd: session.command(c))
+        gui.add_markdown(f"Live monitor and buttons: the operator page, {self.url}")
+        for label, cmd, key in _BUTTONS:  # hotkeys while the 3D view has the keyboard focus
             hotkey = gui.add_command(label, hotkey=key.upper())  # type: ignore[arg-type]
             hotkey.on_trigger(lambda _event, c=cmd: session.command(c))
-        self._monitor = gui.add_html(self._monitor_html(session.status))
         self._images = {}
         with gui.add_folder("Cameras"):
             for cam in session.cameras.cameras:
@@ -183,27 +190,19 @@ class OperatorView:
                 self._images[cam] = gui.add_image(blank, label=cam, format="jpeg", jpeg_quality=80)
 
     @staticmethod
-    def _monitor_html(s: SessionStatus) -> str:
-        rows = []
-        for k, cid in enumerate(s.constraints):
-            bad = bool(s.violated[k]) if k < len(s.violated) else False
-            state = s.dfa_state[k] if k < len(s.dfa_state) else 0
-            colour = "#c62828" if bad else "#2e7d32"
-            rows.append(f"<tr><td><b>{html.escape(cid)}</b><br><code>{html.escape(s.formulas[k])}</code></td>"
-                        f"<td style='color:{colour}'>{'VIOLATED' if bad else 'ok'} (q{state})</td></tr>")
-        banner = ""
-        if s.first_violation:
-            banner = ("<div style='background:#c62828;color:white;padding:6px;font-weight:bold'>"
-                      f"VIOLATION: {html.escape(s.first_violation)}</div>")
+    def monitor_state(s: SessionStatus) -> dict[str, Any]:
+        """The monitor as the page shows it (JSON-serialisable)."""
         mode = "settling" if s.settling else "recording" if s.recording else "idle"
         if s.recording and s.clutch_out:
             mode += " · CLUTCH OUT (the robot holds; press c to re-engage)"
-        return (f"{banner}<div id='mg-monitor' data-step='{s.step}' data-sent='{s.sent_at:.6f}'>"
-                f"<b>{mode}</b> · step <span id='mg-step'>{s.step}</span><br>"
-                f"engaged: <b>{'yes' if s.engaged else 'no'}</b> · success: <b>{'yes' if s.success else 'no'}"
-                f"</b> · gate {s.streak}/{s.hold_steps}<br>"
-                f"<table style='font-size:12px'>{''.join(rows)}</table>"
-                f"kept {s.kept} · failed {s.failed}<br><i>{html.escape(s.message)}</i></div>")
+        constraints = [{"id": cid, "formula": s.formulas[k],
+                        "violated": bool(s.violated[k]) if k < len(s.violated) else False,
+                        "state": int(s.dfa_state[k]) if k < len(s.dfa_state) else 0}
+                       for k, cid in enumerate(s.constraints)]
+        return {"step": s.step, "sent_at": s.sent_at, "mode": mode, "constraints": constraints,
+                "first_violation": s.first_violation, "engaged": s.engaged, "success": s.success,
+                "streak": s.streak, "hold_steps": s.hold_steps, "kept": s.kept, "failed": s.failed,
+                "message": s.message}
 
     # -- per step ------------------------------------------------------------------------------------------
     def update(self, status: SessionStatus) -> None:
@@ -247,15 +246,8 @@ class OperatorView:
             self.published += 1
 
     def _send_monitor(self, status: SessionStatus) -> None:
-        """Send the monitor panel if its state changed, or ``monitor_every`` steps after it was last sent (the
-        step counter): a browser short of CPU then re-renders the panel only when there is news."""
-        state = self._monitor_html(dataclasses.replace(status, step=0, sent_at=0.0))
-        last_state, last_step = self._shown
-        if state == last_state and 0 <= status.step - last_step < self.monitor_every:
-            return
-        self._shown = (state, status.step)
-        self._monitor.content = self._monitor_html(status)
-        self.server.flush()  # a batch of GUI messages only: the browser applies it without a 3D frame
+        """Push the monitor state to every open operator page at once (its own stream, not viser's)."""
+        self.page.publish(json.dumps(self.monitor_state(status), separators=(",", ":")).encode())
         self.flushed.append((status.step, time.time()))
 
     def close(self) -> None:
@@ -263,4 +255,5 @@ class OperatorView:
             self._stop = True
             self._cond.notify()
         self._thread.join(timeout=5.0)
+        self.page.close()
         self.server.stop()
