@@ -129,8 +129,8 @@ def register(app: typer.Typer) -> None:
     def serve_random(seed: Annotated[int, typer.Option(help="Seed mixed with each rollout's seed.")] = 0,
                      host: Annotated[str, typer.Option(help=HOST_HELP)] = "127.0.0.1",
                      port: Annotated[int, typer.Option(help=PORT_HELP)] = 8000) -> None:
-        """Seeded random joint-target walks (table "random" of recipes/eval.toml); results depend only on the seed
-        and each rollout's own seed, never on order or workers.
+        """Seeded random joint-target walks (table "random" of recipes/eval.toml); results depend only on
+        the seed and each rollout's own seed, never on order or workers.
 
         Example: mgdata serve random --seed 0 --port 8000
         """

@@ -28,7 +28,7 @@ from mgdata.record.physics import physics_state, set_physics_state
 from mgdata.sim.assets import get_model
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.scene import Scene
-from mgdata.spec import spec_from_mapping
+from mgdata.spec import SafetySpec, spec_from_mapping
 from mgdata.tasks.recipe import Recipe
 from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 
@@ -56,7 +56,7 @@ def task_from_meta(meta: dict[str, Any], recipe: Recipe, where: str) -> TaskSpec
             prompt=meta["prompt"],
             objects=tuple(ObjectPlacement(o["name"], o["model"], tuple(o["placed_pos"]),
                                           float(o["placed_yaw"])) for o in meta["objects"]),
-            safety=spec_from_mapping(meta["spec"], f"{where}: spec"),
+            safety=_spec(meta, recipe, where),
             goal=None if goal is None else GoalRegion(tuple(goal["pos"]), float(goal["radius"]),
                                                       goal["name"]),
             articulation=MappingProxyType(dict(meta["articulation"])),
@@ -66,6 +66,15 @@ def task_from_meta(meta: dict[str, Any], recipe: Recipe, where: str) -> TaskSpec
             tint=MappingProxyType({k: tuple(v) for k, v in meta["tint"].items()}), room=meta["room"])
     except (KeyError, TypeError, ValueError) as err:
         raise DatasetError(f"{where}: not a scenario.json this version reads ({err!r})") from None
+
+
+def _spec(meta: dict[str, Any], recipe: Recipe, where: str) -> SafetySpec:
+    """The stored spec; the recipe's when it is the same spec (``scenario.json`` sorts the propositions, the
+    recipe keeps the dataset's column order)."""
+    stored = spec_from_mapping(meta["spec"], f"{where}: spec")
+    same = (stored.name == recipe.spec.name and stored.constraints == recipe.spec.constraints
+            and {p.name: p for p in stored.propositions} == {p.name: p for p in recipe.spec.propositions})
+    return recipe.spec if same else stored
 
 
 def restore_scenario(folder: Path, recipe: Recipe | None = None) -> RestoredScenario:

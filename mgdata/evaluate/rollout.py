@@ -100,8 +100,22 @@ class _Trace:
         pass
 
 
+@dataclass(frozen=True)
+class RolloutResult:
+    """A rollout's record and its recorded frames (state, action, labels, monitor, physics state; no images),
+    frame ``t`` being the observation after ``t`` actions and the action taken from it."""
+
+    record: dict[str, Any]
+    frames: list[Frame]
+
+
 def run_rollout(job: RolloutJob, settings: LoopSettings) -> dict[str, Any]:
-    """Roll the policy out on one scenario and return its record (see the module docstring).
+    """The record of :func:`rollout` (what a worker process sends back)."""
+    return rollout(job, settings).record
+
+
+def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
+    """Roll the policy out on one scenario (see the module docstring).
 
     Raises:
         PolicyError: the server is unreachable, reported an error or sent a malformed reply.
@@ -168,13 +182,14 @@ def run_rollout(job: RolloutJob, settings: LoopSettings) -> dict[str, Any]:
 
         write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, trace.frames, scene, meta)
     steps = [t for t in firsts.values() if t is not None]
-    return {
+    record = {
         "family": meta["family"], "task": f"task_{int(meta['task_id']):04d}", "condition": meta["condition"],
         "seed": job.seed, "scenario": job.scenario, "episode_seed": episode_seed, "success": end == "success",
         "engaged": t_engage is not None, "t_engage": t_engage, "t_violation": min(steps) if steps else None,
         "t_violation_by": firsts, "t_success": t_success, "horizon": horizon,
         "steps": runner.steps, "end": end,
     }
+    return RolloutResult(record, trace.frames)
 
 
 def video_name(job: RolloutJob) -> str:

@@ -1,0 +1,72 @@
+"""openpi's wire format and websocket protocol, against a real server process (`mgdata serve hold`)."""
+
+from __future__ import annotations
+
+import json
+import urllib.request
+
+import msgpack
+import numpy as np
+import pytest
+from conftest import serve_process
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+from websockets.sync.client import connect
+
+from mgdata.errors import PolicyError
+from mgdata.evaluate.client import PolicyClient
+from mgdata.evaluate.wire import packb, unpackb
+
+DTYPES = st.sampled_from(["<f4", "<f8", "|u1", "<i8", "<i4", "|b1", "<f2"])
+
+
+@given(hnp.arrays(DTYPES, hnp.array_shapes(min_dims=0, max_dims=4, max_side=5)))
+@settings(max_examples=60, deadline=None)
+def test_arrays_travel_as_openpi_tagged_maps(arr: np.ndarray) -> None:
+    blob = packb({"a": arr, "s": arr.dtype.type(0), "text": "close the jar", "n": [1, 2.5]})
+    raw = msgpack.unpackb(blob)  # what any msgpack reader sees: openpi's msgpack_numpy layout
+    tagged = raw["a"]
+    assert tagged[b"__ndarray__"] is True and tagged[b"dtype"] == arr.dtype.str
+    assert tuple(tagged[b"shape"]) == arr.shape and tagged[b"data"] == arr.tobytes()
+    assert raw["s"][b"__npgeneric__"] is True and raw["s"][b"dtype"] == arr.dtype.str
+    back = unpackb(blob)
+    assert back["a"].dtype == arr.dtype and back["a"].shape == arr.shape
+    assert back["a"].tobytes() == arr.tobytes()  # bit for bit, NaNs included
+    assert type(back["s"]) is arr.dtype.type and back["text"] == "close the jar" and back["n"] == [1, 2.5]
+
+
+def test_object_and_complex_arrays_are_refused() -> None:
+    for bad in (np.array([1 + 2j]), np.array([object()], dtype=object)):
+        with pytest.raises(ValueError, match="unsupported dtype"):
+            packb({"x": bad})
+
+
+def test_a_served_policy_speaks_the_protocol() -> None:
+    proc, url = serve_process("hold")
+    try:
+        host_port = url.removeprefix("ws://")
+        with urllib.request.urlopen(f"http://{host_port}/healthz", timeout=10) as reply:
+            assert reply.status == 200 and reply.read() == b"OK\n"
+        command = np.array([0.1, -0.5, 0.0, -2.0, 0.0, 1.6, 0.7, 1.0], np.float32)
+        with PolicyClient(url, timeout=10) as client:
+            assert client.metadata["policy"] == "hold" and client.metadata["chunk"] == 16
+            reply = client.infer({"observation/state": np.zeros(8, np.float32), "mgdata/command": command,
+                                  "prompt": "x", "episode_seed": 7})
+            assert reply["actions"].shape == (16, 8) and reply["actions"].dtype == np.float32
+            assert (reply["actions"] == command).all() and "infer_ms" in reply["server_timing"]
+        # a policy error arrives as a text frame (the traceback) and the connection is closed with 1011
+        with connect(url, compression=None, max_size=None) as ws:
+            assert unpackb(ws.recv(timeout=10))["policy"] == "hold"
+            ws.send(packb({"prompt": "no command"}))
+            text = ws.recv(timeout=10)
+            assert isinstance(text, str) and "PolicyError" in text and "mgdata/command" in text
+        with PolicyClient(url, timeout=10) as client, pytest.raises(PolicyError) as err:
+            client.infer({"prompt": "no command"})
+        message = str(err.value)
+        assert message.startswith("the policy server failed:") and "'mgdata/command'" in message
+        assert "\n" not in message and json.dumps(message)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    assert proc.returncode == 0
