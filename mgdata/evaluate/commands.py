@@ -107,6 +107,12 @@ def register(app: typer.Typer) -> None:
                       f"{summary.results}")
         if outcomes:
             console.print("ends: " + ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())))
+        if summary.planned:
+            from mgdata.evaluate.page import write_results_page
+            from mgdata.metrics import load_records
+
+            page = write_results_page(load_records(summary.results), out / "results.html")
+            console.print(f"results page: {page}")
         console.print(f"metrics: mgdata metrics {summary.results} --by family,condition")
 
     serve = typer.Typer(help="Serve a reference policy over openpi's websocket protocol.",

@@ -92,8 +92,10 @@ class _Episode:
 class ReplayPolicy:
     """Serves recorded episodes of ``dataset`` (see the module docstring).
 
-    With ``scenarios`` (a scenario set), a scenario is matched to the episodes whose **first stored physics
-    state equals the scenario's state bit for bit** (and whose family, task and condition agree); without,
+    With ``scenarios`` (a scenario set), a scenario is matched to the episodes of its family and task whose
+    **first stored physics state equals the scenario's state bit for bit**, whatever their condition (a base
+    demo also serves the target, language and environment variants of its task: their physics is the
+    base's, bit for bit; a moved location has another state and no match). Without, a scenario is matched
     to the episodes of its family, task and condition. Kept episodes are preferred, then the lowest index.
     """
 
@@ -128,8 +130,10 @@ class ReplayPolicy:
         for entry in read_manifest(scenarios):
             state = np.load(scenarios / entry["path"] / STATE, allow_pickle=False)
             blob = np.ascontiguousarray(state, dtype="<f8").tobytes()
-            key = (entry["family"], int(entry["task_id"]), entry["condition"])
-            hit = next((ep for ep, first in self._by_key.get(key, []) if first == blob), None)
+            candidates = sorted((pair for (family, task, _), eps in self._by_key.items() for pair in eps
+                                 if family == entry["family"] and task == int(entry["task_id"])),
+                                key=lambda pair: (not pair[0].kept, pair[0].index))
+            hit = next((ep for ep, first in candidates if first == blob), None)
             if hit is not None:
                 matched[entry["path"]] = hit
         if not matched:
