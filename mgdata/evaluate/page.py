@@ -22,7 +22,7 @@ from mgdata.tasks.variants import CONDITIONS
 BARS: tuple[tuple[str, str, str], ...] = (("SSR", "ssr", "#2e8b57"), ("TSR", "tsr", "#3b6fb6"),
                                           ("EVR", "evr", "#c8443a"))
 """(label, Metrics attribute, colour) of each bar."""
-_W_BAR, _GAP, _H, _TOP, _LEFT, _BOTTOM = 22, 26, 200, 24, 44, 46
+_W_BAR, _GAP, _H, _TOP, _LEFT, _BOTTOM = 22, 26, 200, 40, 44, 46
 
 _CSS = """body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:24px;color:#222}
 h1{font-size:22px;margin:0 0 4px}h2{font-size:17px;margin:22px 0 6px}p.note{color:#555;margin:2px 0 12px}
@@ -71,7 +71,7 @@ def _chart(family: str, groups: Sequence[Metrics]) -> str:
                    f'{html.escape(condition)}</text>')
         out.append(f'<text x="{cx:.1f}" y="{_TOP + _H + 31}" font-size="10" text-anchor="middle" '
                    f'fill="#777">n={n}</text>')
-    out.append(f'<text x="{_LEFT}" y="15" font-size="14" font-weight="600">{html.escape(family)}</text>')
+    out.append(f'<text x="{_LEFT}" y="18" font-size="14" font-weight="600">{html.escape(family)}</text>')
     out.append("</svg>")
     return "".join(out)
 

@@ -22,6 +22,8 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass
@@ -162,7 +164,8 @@ def _parallel(todo: list[RolloutJob], job: EvalJob, finished: Callable[[dict[str
     """Run ``todo`` in ``job.workers`` spawned processes, at most ``workers`` in flight (so a failure stops
     the run after little wasted work); records are handed to ``finished`` as they arrive."""
     pending = list(reversed(todo))
-    with ProcessPoolExecutor(job.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with ProcessPoolExecutor(job.workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
         running: set[Future[dict[str, Any]]] = set()
         try:
             while pending or running:
@@ -175,3 +178,15 @@ def _parallel(todo: list[RolloutJob], job: EvalJob, finished: Callable[[dict[str
             for f in running:
                 f.cancel()
             raise
+
+
+def _exit_with_parent(parent: int) -> None:
+    """In a worker: exit as soon as the evaluating process is gone (killed), instead of finishing a rollout
+    nobody will record."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()

@@ -130,3 +130,16 @@ def test_the_rollout_seed_is_crc32_of_seed_and_scenario() -> None:
 
     assert rollout_seed(0, "jar/task_0000/base") == zlib.crc32(b"0/jar/task_0000/base")
     assert rollout_seed(1, "jar/task_0000/base") != rollout_seed(0, "jar/task_0000/base")
+
+
+def test_video_shows_every_step_with_the_monitor_panel(scenario_set: Path, tmp_path: Path, serving) -> None:  # type: ignore[no-untyped-def]
+    from mgdata.record.video import decode
+
+    url = serving(HoldPolicy(16))
+    settings = LoopSettings(url, chunk_steps=8, horizon=12, video_dir=tmp_path)
+    rollout(RolloutJob(scenario_set, "jar/task_0000/base", 0), settings)
+    frames = decode(tmp_path / "jar_task_0000_base_seed0.mp4", 0, 12, 20)
+    size = 256  # the scenario's image size; two cameras and the panel side by side
+    assert frames.shape == (12, size, 3 * size, 3)
+    panel = frames[0][:, 2 * size:]
+    assert panel.mean() < 60 and (panel > 200).any()  # dark panel with bright text
