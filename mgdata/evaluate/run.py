@@ -5,7 +5,8 @@ and parallel, into ``<out>/rollouts.jsonl``.
   manifest's (family, task, condition) order, seeds inner.
 * **Resume.** Each finished rollout is appended to ``rollouts.jsonl`` as one line and flushed to disk before
   the next is counted; a rerun skips the (scenario, seed) pairs already there (a line torn by a kill is
-  dropped and re-run). ``<out>/eval.json`` records the settings; a rerun with other settings is refused.
+  dropped and re-run). ``<out>/eval.json`` records the settings and the policy server's metadata frame; a
+  rerun with others is refused (the server's URL may change).
 * **Workers.** ``workers`` spawned processes each run whole rollouts (their own scene, renderer and
   connection). When every rollout is in, the file is rewritten in plan order, so it is byte-identical for
   any worker count (a record does not depend on wall time, order or which process ran it).
@@ -26,13 +27,14 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from mgdata.atomic import write_text_atomic
 from mgdata.engine.scenarios import read_manifest
 from mgdata.errors import DatasetError, OutputError
+from mgdata.evaluate.client import PolicyClient
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, run_rollout
 
 RESULTS = "rollouts.jsonl"
@@ -79,11 +81,14 @@ def plan(job: EvalJob) -> list[RolloutJob]:
     return [RolloutJob(job.scenarios, e["path"], s) for e in chosen for s in job.seeds]
 
 
-def _settings_record(job: EvalJob) -> dict[str, Any]:
-    s = asdict(job.settings)
-    s["video_dir"] = None if job.settings.video_dir is None else str(job.settings.video_dir)
-    s["cameras"] = None if job.settings.cameras is None else list(job.settings.cameras)
-    return {"scenarios": str(job.scenarios), "settings": s}
+def _settings_record(job: EvalJob, metadata: dict[str, Any]) -> dict[str, Any]:
+    """What makes two runs the same evaluation: the scenarios, the loop settings that change a record, and
+    the policy's own metadata frame (not its URL: a restarted server on another port is the same policy)."""
+    s = job.settings
+    loop = {"convention": s.convention, "cameras": None if s.cameras is None else list(s.cameras),
+            "chunk_steps": s.chunk_steps, "timeout_s": s.timeout_s, "horizon": s.horizon}
+    return {"scenarios": str(job.scenarios), "loop": loop,
+            "policy_metadata": json.loads(json.dumps(metadata, sort_keys=True, default=repr))}
 
 
 def read_results(path: Path) -> list[dict[str, Any]]:
@@ -106,12 +111,12 @@ def _append(path: Path, record: dict[str, Any]) -> None:
         os.fsync(f.fileno())
 
 
-def _prepare(job: EvalJob) -> Path:
+def _prepare(job: EvalJob, metadata: dict[str, Any]) -> Path:
     out = Path(job.out)
     if out.exists() and not out.is_dir():
         raise OutputError(f"--out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    wanted = _settings_record(job)
+    wanted = _settings_record(job, metadata)
     settings = out / SETTINGS
     if settings.exists():
         try:
@@ -119,8 +124,9 @@ def _prepare(job: EvalJob) -> Path:
         except json.JSONDecodeError:
             before = None
         if before is not None and before != wanted:
-            raise OutputError(f"--out {out}: holds results of another evaluation ({SETTINGS} differs: "
-                              f"policy, convention, cameras, chunk steps or scenarios); choose a new --out")
+            raise OutputError(f"--out {out}: holds results of another evaluation ({SETTINGS} differs: the "
+                              "policy's metadata, convention, cameras, chunk steps, timeout, horizon or "
+                              "scenarios); choose a new --out")
     write_text_atomic(settings, json.dumps(wanted, indent=1, sort_keys=True) + "\n")
     results = out / RESULTS
     good = read_results(results)
@@ -137,7 +143,10 @@ def run_eval(job: EvalJob, on_record: Callable[[dict[str, Any]], None] | None = 
     ``on_plan(total, done)`` is called once before the first rollout, ``on_record`` after each one.
     """
     rollouts = plan(job)
-    results = _prepare(job)
+    with PolicyClient(job.settings.policy, timeout=job.settings.timeout_s,
+                      connect_timeout=job.settings.connect_timeout_s) as client:
+        metadata = client.metadata
+    results = _prepare(job, metadata)
     done = {(r["scenario"], r["seed"]) for r in read_results(results)}
     todo = [r for r in rollouts if r.key not in done]
     if on_plan is not None:

@@ -9,12 +9,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from mgdata.engine.scenarios import load_scenario
+from mgdata.errors import OutputError, PolicyError
 from mgdata.evaluate.config import RandomConfig
 from mgdata.evaluate.policies import HoldPolicy, RandomPolicy, ReplayPolicy
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, rollout, rollout_seed
-from mgdata.evaluate.run import EvalJob, plan, run_eval
+from mgdata.evaluate.run import EvalJob, plan, read_results, run_eval
 from mgdata.metrics import compute_metrics, parse_record
 from mgdata.record.physics import set_physics_state
 from mgdata.record.reader import DatasetReader
@@ -143,3 +145,18 @@ def test_video_shows_every_step_with_the_monitor_panel(scenario_set: Path, tmp_p
     assert frames.shape == (12, size, 3 * size, 3)
     panel = frames[0][:, 2 * size:]
     assert panel.mean() < 60 and (panel > 200).any()  # dark panel with bright text
+
+
+def test_a_server_error_stops_the_run_and_keeps_what_finished(scenario_set: Path, demo: Path, tmp_path: Path,
+                                                              serving) -> None:  # type: ignore[no-untyped-def]
+    # without --scenarios, replay matches by family, task and condition: the target scenario has no episode
+    url = serving(ReplayPolicy(demo, chunk=16))
+    job = EvalJob(scenario_set, LoopSettings(url, chunk_steps=8), (0,), tmp_path / "r")
+    with pytest.raises(PolicyError, match=r"the policy server failed: .*no episode of scenario "
+                                          r"jar/task_0000/target"):
+        run_eval(job)
+    kept = read_results(tmp_path / "r" / "rollouts.jsonl")
+    assert [(r["scenario"], r["success"]) for r in kept] == [("jar/task_0000/base", True)]
+    other = EvalJob(scenario_set, LoopSettings(serving(HoldPolicy(16)), chunk_steps=8), (0,), tmp_path / "r")
+    with pytest.raises(OutputError, match="holds results of another evaluation"):
+        run_eval(other)
