@@ -6,12 +6,15 @@ from __future__ import annotations
 import signal
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from mgdata.console import plain_console
 from mgdata.errors import RecipeError
+
+if TYPE_CHECKING:
+    from mgdata.evaluate.server import Policy
 
 HOST_HELP = "Interface to bind (default: this machine only)."
 PORT_HELP = "Port (0: any free port; the URL is printed)."
@@ -167,19 +170,18 @@ def register(app: typer.Typer) -> None:
         _serve(policy, host, port)
 
 
-def _serve(policy: object, host: str, port: int) -> None:
+def _serve(policy: Policy, host: str, port: int) -> None:
     from mgdata.errors import OutputError
     from mgdata.evaluate.server import PolicyServer
 
     if not 0 <= port <= 65535:
         raise RecipeError(f"--port {port}: expected 0 … 65535")
     try:
-        server = PolicyServer(policy, host, port)  # type: ignore[arg-type]
+        server = PolicyServer(policy, host, port)
     except OSError as err:
         raise OutputError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
     signal.signal(signal.SIGTERM, lambda *_: server.shutdown())
-    name = policy.metadata["policy"]  # type: ignore[attr-defined]
-    print(f"serving {name} on {server.url} (health: GET /healthz)", flush=True)
+    print(f"serving {policy.metadata['policy']} on {server.url} (health: GET /healthz)", flush=True)
     try:
         server.serve_forever()
     except KeyboardInterrupt:

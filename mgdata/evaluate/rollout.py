@@ -146,11 +146,11 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         with PolicyClient(settings.policy, timeout=settings.timeout_s,
                           connect_timeout=settings.connect_timeout_s) as client:
             while end is None:
-                images = rig.render() if not chunk or settings.video_dir is not None else None
+                images = rig.render() if not chunk or settings.video_dir is not None else {}
                 if settings.video_dir is not None:
-                    video.append(images)  # type: ignore[arg-type]
+                    video.append(images)
                 if not chunk:
-                    obs = Observation(images, controller.state(), command.copy(), meta["prompt"],  # type: ignore[arg-type]
+                    obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
                                       episode_seed, runner.steps, job.scenario)
                     try:
                         reply = client.infer(encode(settings.convention, cameras, obs))

@@ -29,11 +29,15 @@ def test_arrays_travel_as_openpi_tagged_maps(arr: np.ndarray) -> None:
     tagged = raw["a"]
     assert tagged[b"__ndarray__"] is True and tagged[b"dtype"] == arr.dtype.str
     assert tuple(tagged[b"shape"]) == arr.shape and tagged[b"data"] == arr.tobytes()
-    assert raw["s"][b"__npgeneric__"] is True and raw["s"][b"dtype"] == arr.dtype.str
     back = unpackb(blob)
     assert back["a"].dtype == arr.dtype and back["a"].shape == arr.shape
     assert back["a"].tobytes() == arr.tobytes()  # bit for bit, NaNs included
-    assert type(back["s"]) is arr.dtype.type and back["text"] == "close the jar" and back["n"] == [1, 2.5]
+    assert back["text"] == "close the jar" and back["n"] == [1, 2.5]
+    if arr.dtype == np.float64:  # np.float64 is a Python float: msgpack packs it natively (as openpi's does)
+        assert raw["s"] == 0.0 and back["s"] == 0.0
+    else:
+        assert raw["s"][b"__npgeneric__"] is True and raw["s"][b"dtype"] == arr.dtype.str
+        assert type(back["s"]) is arr.dtype.type
 
 
 def test_object_and_complex_arrays_are_refused() -> None:
@@ -70,3 +74,26 @@ def test_a_served_policy_speaks_the_protocol() -> None:
         proc.terminate()
         proc.wait(timeout=30)
     assert proc.returncode == 0
+
+
+def test_observation_keys_follow_each_convention() -> None:
+    from mgdata.evaluate.conventions import Observation, decode_actions, encode
+
+    img = {c: np.full((4, 4, 3), i, np.uint8) for i, c in enumerate(("front", "left", "wrist"))}
+    state = np.arange(8, dtype=np.float32)
+    obs = Observation(img, state, state + 1, "close the jar", 42, 7, "jar/task_0000/base")
+    extra = {"episode_seed", "mgdata/step", "mgdata/scenario", "mgdata/command"}
+    pi0 = encode("pi0", ("front", "wrist"), obs)
+    assert set(pi0) == {"observation/image", "observation/wrist_image", "observation/state", "prompt"} | extra
+    assert (pi0["observation/wrist_image"] == 2).all() and pi0["episode_seed"] == 42
+    smol = encode("smolvla", ("left", "wrist"), obs)
+    assert (smol["observation.images.top"] == 1).all() and smol["task"] == "close the jar"
+    groot = encode("groot", ("front", "left", "wrist"), obs)
+    assert groot["video.left"].shape == (1, 4, 4, 3) and groot["state.gripper"].tolist() == [[7.0]]
+    assert groot["annotation.human.task_description"] == ["close the jar"]
+    split = decode_actions({"action.single_arm": np.zeros((5, 7)), "action.gripper": np.ones((5, 1))})
+    assert split.shape == (5, 8) and split.dtype == np.float32 and (split[:, 7] == 1).all()
+    assert decode_actions({"actions": np.arange(8.0)}).shape == (1, 8)
+    for bad in ({"actions": np.zeros((3, 7))}, {"action": np.zeros((3, 8))}, [1, 2]):
+        with pytest.raises(PolicyError):
+            decode_actions(bad)
