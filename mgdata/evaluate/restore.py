@@ -3,8 +3,8 @@
 The model is the scenario's own compiled MJB (``mgdata.engine.scenarios.load_scenario``, hashes checked),
 never a rebuild; the :class:`~mgdata.tasks.taskspec.TaskSpec` the labeller, monitor and success check need
 is read back from ``scenario.json`` (objects as placed, the stored safety spec, goal, articulation, tint,
-room). The state is ``state.npy``. The family recipe supplies what a scenario does not store: the success
-predicate, ``hold_steps`` and the rest thresholds.
+room). The state is ``state.npy`` (as ``load_scenario`` sets it). The family recipe supplies what a
+scenario does not store: the success predicate, ``hold_steps`` and the rest thresholds.
 
 Example::
 
@@ -14,7 +14,6 @@ Example::
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -22,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.engine.scenarios import STATE, load_scenario
+from mgdata.engine.scenarios import load_scenario
 from mgdata.errors import DatasetError, RecipeError
 from mgdata.record.physics import physics_state, set_physics_state
 from mgdata.sim.assets import get_model
@@ -97,9 +96,9 @@ def restore_scenario(folder: Path, recipe: Recipe | None = None) -> RestoredScen
         raise RecipeError(f"{folder}: built with a physics timestep of {model.opt.timestep} s, "
                           f"recipes/sim.toml has {sim.physics.timestep} s; rebuild the scenarios")
     task = task_from_meta(meta, recipe, str(folder / "scenario.json"))
-    state = np.load(io.BytesIO((folder / STATE).read_bytes()), allow_pickle=False)
+    state = physics_state(model, data)  # load_scenario set it from state.npy
     scene = Scene(task, model, {o.name: get_model(o.model) for o in task.objects}, sim)
     set_physics_state(scene.model, scene.data, state)
-    if not np.array_equal(physics_state(scene.model, scene.data), physics_state(model, data)):
-        raise DatasetError(f"{folder}: the restored state differs from {STATE}")
+    if physics_state(scene.model, scene.data).tobytes() != state.tobytes():
+        raise DatasetError(f"{folder}: the restored state differs from the stored one")
     return RestoredScenario(scene, meta, recipe, state)
