@@ -3,6 +3,7 @@ policies over openpi's websocket protocol). docs/eval.md."""
 
 from __future__ import annotations
 
+import json
 import signal
 import sys
 from pathlib import Path
@@ -66,7 +67,7 @@ def register(app: typer.Typer) -> None:
 
         from mgdata.evaluate.client import check_health, check_url
         from mgdata.evaluate.config import load_eval_config
-        from mgdata.evaluate.conventions import CONVENTIONS
+        from mgdata.evaluate.conventions import CONVENTIONS, check_cameras, default_cameras
         from mgdata.evaluate.rollout import LoopSettings
         from mgdata.evaluate.run import EvalJob, plan, run_eval
 
@@ -89,7 +90,9 @@ def register(app: typer.Typer) -> None:
                                 out / "videos" if video else None, horizon)
         job = EvalJob(scenarios, settings, _ints(seeds, "--seeds"), out,
                       tuple(family) if family else None, tuple(condition) if condition else None, workers)
-        plan(job)  # bad scenario folders and filters fail before the server is asked
+        first = plan(job)[0]  # bad scenario folders and filters fail before the server is asked
+        cams = list(json.loads((scenarios / first.scenario / "scenario.json").read_text())["cameras"])
+        check_cameras(convention, chosen or default_cameras(convention, cams), cams)
         check_health(policy, config.connect_timeout_s)
         console = plain_console()
         outcomes: dict[str, int] = {}
@@ -168,6 +171,23 @@ def register(app: typer.Typer) -> None:
             plain_console().print(f"replay: {len(policy.scenarios)} scenarios of {scenarios} start from an "
                                   f"episode of {dataset}")
         _serve(policy, host, port)
+
+
+    @serve.command("lerobot")
+    def serve_lerobot(
+        checkpoint: Annotated[Path, typer.Option(help="A LeRobot save_pretrained folder (config.json …).")],
+        device: Annotated[str, typer.Option(help="Torch device.")] = "cpu",
+        host: Annotated[str, typer.Option(help=HOST_HELP)] = "127.0.0.1",
+        port: Annotated[int, typer.Option(help=PORT_HELP)] = 8000,
+    ) -> None:
+        """Serve a LeRobot policy checkpoint (needs the lerobot extra); evaluate it with
+        --convention smolvla.
+
+        Example: mgdata serve lerobot --checkpoint outputs/train/act/checkpoints/last/pretrained_model
+        """
+        from mgdata.evaluate.lerobot_policy import LeRobotPolicy
+
+        _serve(LeRobotPolicy(checkpoint, device), host, port)
 
 
 def _serve(policy: Policy, host: str, port: int) -> None:

@@ -97,3 +97,14 @@ def test_observation_keys_follow_each_convention() -> None:
     for bad in ({"actions": np.zeros((3, 7))}, {"action": np.zeros((3, 8))}, [1, 2]):
         with pytest.raises(PolicyError):
             decode_actions(bad)
+    from mgdata.errors import RecipeError
+    from mgdata.evaluate.conventions import check_cameras, default_cameras
+
+    cams = ["front", "left", "wrist"]
+    assert default_cameras("pi0", cams) == ("front", "wrist")
+    check_cameras("groot", ("front", "left", "wrist"), cams)
+    for convention, chosen, message in (("pi0", ("front", "left"), "an overview and then 'wrist'"),
+                                        ("smolvla", ("top", "wrist"), "'top' is not a scenario camera"),
+                                        ("octo", ("front", "wrist"), "--convention 'octo'")):
+        with pytest.raises(RecipeError, match=message):
+            check_cameras(convention, chosen, cams)
