@@ -4,9 +4,6 @@ its task 0 in real datasets, and policy servers running in this process or as `m
 from __future__ import annotations
 
 import dataclasses
-import os
-import subprocess
-import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,9 +19,6 @@ from mgdata.paths import grasps_dir
 from mgdata.record.recorder import schema_for
 from mgdata.record.writer import DatasetWriter
 from skeletons.jar import JarSkeleton
-
-MGDATA = [str(Path(sys.executable).parent / "mgdata")]
-ENV = {**os.environ, "LP_NUM_THREADS": "1"}
 
 
 class LiftOpenJar(JarSkeleton):
@@ -84,15 +78,3 @@ def serving() -> Iterator:
     yield start
     for s in servers:
         s.shutdown()
-
-
-def serve_process(*args: str) -> tuple[subprocess.Popen, str]:
-    """``mgdata serve ARGS --port 0`` as a process; returns it and the URL it printed."""
-    proc = subprocess.Popen([*MGDATA, "serve", *args, "--port", "0"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=ENV)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if line.startswith("serving "):
-            return proc, line.split(" on ")[1].split()[0]
-    proc.kill()
-    raise AssertionError(f"mgdata serve did not start: {proc.stderr.read() if proc.stderr else ''}")

@@ -8,7 +8,7 @@ import urllib.request
 import msgpack
 import numpy as np
 import pytest
-from conftest import serve_process
+from eval_helpers import serve_process
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
