@@ -1,5 +1,6 @@
 """Shared fixtures of the evaluation tests: a two-scenario jar set, a kept demo and an unsafe negative of
-its task 0 in real datasets, and policy servers running in this process or as `mgdata serve` processes."""
+its task 0 in real datasets, and policy servers running in this process (`mgdata serve` processes:
+eval_helpers.serve_process)."""
 
 from __future__ import annotations
 
