@@ -45,6 +45,7 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 
 ENDS = ("success", "timeout", "sim_diverged", "policy_timeout", "bad_action")
+"""The values of a record's ``end`` (see the module docstring)."""
 
 
 def rollout_seed(seed: int, scenario: str) -> int:
