@@ -50,6 +50,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "mgdata.grasps.commands",
     "mgdata.engine.commands",
     "mgdata.engine.scenario_commands",
+    "mgdata.evaluate.commands",
     "mgdata.record.commands",
     "mgdata.ltl.commands",
     "mgdata.annotate.commands",

@@ -69,3 +69,8 @@ class OutputError(MgdataError):
 
 class WorkerError(MgdataError):
     """An attempt worker process died (killed or crashed); what was committed before stays."""
+
+
+class PolicyError(MgdataError):
+    """The evaluated policy cannot be used: a bad ``--policy`` URL, a server that is down, an error the
+    server reported, or a reply that is not an action chunk."""

@@ -27,19 +27,25 @@ _WHITE, _GREEN, _RED, _GREY = (235, 235, 235), (90, 220, 110), (240, 80, 70), (1
 
 def _panel(size: int, ep: EpisodeData, t: int, propositions: tuple[str, ...], constraints: tuple[str, ...]
            ) -> np.ndarray:
+    header = [f"episode {ep.index}  task {ep.meta.task_id}  draw {ep.meta.draw_index}",
+              f"step {t}/{ep.length - 1}  grasp {ep.meta.grasp_id or '-'}"]
+    return safety_panel(size, header, bool(ep.engaged[t]), bool(ep.success[t]), ep.labels[t], ep.violated[t],
+                        propositions, constraints)
+
+
+def safety_panel(size: int, header: list[str], engaged: bool, success: bool, labels: np.ndarray,
+                 violated: np.ndarray, propositions: tuple[str, ...], constraints: tuple[str, ...]
+                 ) -> np.ndarray:
+    """The text panel of one step (``size``² RGB): ``header`` lines, engagement and success, each
+    proposition's truth and each constraint's status; ``mgdata eval --video`` draws the same panel."""
     img = np.full((size, size, 3), 24, np.uint8)
     scale = size / 512.0
-    lines: list[tuple[str, tuple[int, int, int]]] = [
-        (f"episode {ep.index}  task {ep.meta.task_id}  draw {ep.meta.draw_index}", _WHITE),
-        (f"step {t}/{ep.length - 1}  grasp {ep.meta.grasp_id or '-'}", _WHITE),
-        (f"engaged {bool(ep.engaged[t])}  success {bool(ep.success[t])}",
-         _GREEN if ep.success[t] else _WHITE),
-        ("", _WHITE),
-    ]
-    for name, value in zip(propositions, ep.labels[t], strict=True):
+    lines: list[tuple[str, tuple[int, int, int]]] = [(h, _WHITE) for h in header]
+    lines += [(f"engaged {engaged}  success {success}", _GREEN if success else _WHITE), ("", _WHITE)]
+    for name, value in zip(propositions, labels, strict=True):
         lines.append((f"{name}: {bool(value)}", _GREEN if value else _GREY))
     lines.append(("", _WHITE))
-    for name, bad in zip(constraints, ep.violated[t], strict=True):
+    for name, bad in zip(constraints, violated, strict=True):
         lines.append((f"{name}: {'VIOLATED' if bad else 'ok'}", _RED if bad else _GREEN))
     y = int(28 * scale) + 4
     for text, colour in lines:

@@ -62,11 +62,14 @@ class EpisodeRunner:
         horizon: control steps after which the episode ends as ``timeout``.
         steps: actions executed so far; ``q_cmd``/``grip``: the last command.
         timings: optional per-phase seconds (``physics``, ``rendering`` net of ``encoding``).
+        stop_on_violation: end the episode (``unsafe``) at the first violation; evaluation passes False,
+            since a policy's rollout goes on after a violation (it may still succeed: "unsafe success").
     """
 
     def __init__(self, controller: JointController, recorder: Recorder, gate: SuccessGate, horizon: int,
-                 timings: Timings | None = None) -> None:
+                 timings: Timings | None = None, *, stop_on_violation: bool = True) -> None:
         self.controller = controller
+        self.stop_on_violation = stop_on_violation
         self.recorder = recorder
         self.gate = gate
         self.horizon = horizon
@@ -102,7 +105,7 @@ class EpisodeRunner:
         self.steps += 1
         rec = self.recorder
         success, engaged = rec.success, rec.t_engage is not None
-        if monitor.t_violation is not None:
+        if monitor.t_violation is not None and self.stop_on_violation:
             names = [cid for cid, step in rec.first_violation.items() if step is not None]
             return StepOutcome(monitor, success, engaged, "unsafe",
                                f"{', '.join(names)} violated at step {monitor.t_violation}")

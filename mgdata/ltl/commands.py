@@ -36,6 +36,9 @@ def metrics_command(
     records: Annotated[Path, typer.Argument(help="JSON-lines file, one evaluation rollout per line.")],
     by: Annotated[str, typer.Option("--by", help="Group by a comma list of: family, condition, task.")] = "",
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    html: Annotated[Path | None, typer.Option(
+        "--html", help="Also write the results page (SSR/TSR/EVR per family and condition) to this file.")
+    ] = None,
 ) -> None:
     """Compute SSR, TSR, Safe, outcome classes, engagement, SVR/EVR, TTV and TTS from rollout records.
 
@@ -44,7 +47,12 @@ def metrics_command(
     Example: mgdata metrics eval.jsonl --by family,condition
     """
     keys = tuple(k.strip() for k in by.split(",") if k.strip())
-    groups = metrics_by(load_records(records), keys)
+    loaded = load_records(records)
+    groups = metrics_by(loaded, keys)
+    if html is not None:
+        from mgdata.evaluate.page import write_results_page
+
+        write_results_page(loaded, html)
     if as_json:
         typer.echo(json.dumps({"unit": "percent", "by": list(keys), "groups": [m.as_dict() for m in groups]},
                               indent=2))

@@ -1,0 +1,198 @@
+"""One evaluation rollout: a stored scenario, a policy server, the generation's monitor, one record.
+
+The loop (20 Hz, the dataset's rate): restore the scenario bit for bit; at step ``t`` with no actions left,
+render the cameras and query the policy with the observation (:mod:`mgdata.evaluate.conventions`); execute
+the first ``chunk_steps`` actions of the reply, each through
+:class:`~mgdata.engine.runner.EpisodeRunner` (the executor's and teleop's step: controller → labeller →
+monitor → engagement → success column → gate). Every step is labelled and monitored; a violation does not
+end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
+
+* ``success``: the success column (the recipe's goal ∧ objects at rest) held on ``hold_steps`` consecutive
+  steps (every step counts: the policy decides when it is done);
+* ``timeout``: the scenario's ``horizon`` control steps ran out;
+* ``sim_diverged``: the physics diverged (a clean failure, never a crash);
+* ``policy_timeout``: no reply within the client timeout (the connection is dropped, so that late chunk is
+  never executed);
+* ``bad_action``: the policy sent a non-finite action.
+
+The record (one JSON object, the format ``mgdata metrics`` reads) holds ``family``, ``task``
+(``task_NNNN``), ``condition``, ``seed``, ``scenario``, ``episode_seed``, ``success``, ``engaged``,
+``t_engage``, ``t_violation`` (first over the constraints), ``t_violation_by`` (per constraint),
+``t_success`` (the step the hold completed), ``horizon``, ``steps`` and ``end``. Steps index observations:
+``t`` is the state after ``t`` actions. Nothing in it depends on wall time.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mgdata.engine.gate import SuccessGate
+from mgdata.engine.runner import EpisodeRunner
+from mgdata.engine.success import SuccessCheck
+from mgdata.errors import SimulationError
+from mgdata.evaluate.client import PolicyClient, PolicyTimeout
+from mgdata.evaluate.conventions import Observation, check_cameras, decode_actions, default_cameras, encode
+from mgdata.evaluate.restore import restore_scenario
+from mgdata.record.episode import Frame
+from mgdata.record.recorder import Recorder
+from mgdata.sim import robot
+from mgdata.sim.controller import JointController
+from mgdata.sim.renderer import CameraRig
+
+ENDS = ("success", "timeout", "sim_diverged", "policy_timeout", "bad_action")
+"""The values of a record's ``end`` (see the module docstring)."""
+
+
+def rollout_seed(seed: int, scenario: str) -> int:
+    """The per-rollout seed (paper): CRC-32 of ``"<seed>/<scenario>"``, e.g. ``"0/jar/task_0000/base"``."""
+    return zlib.crc32(f"{seed}/{scenario}".encode())
+
+
+@dataclass(frozen=True)
+class RolloutJob:
+    """One rollout: a scenario (its path in the set, e.g. ``jar/task_0000/base``) under one base seed."""
+
+    scenarios: Path
+    scenario: str
+    seed: int
+
+    @property
+    def key(self) -> tuple[str, int]:
+        return self.scenario, self.seed
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """How rollouts talk to the policy: URL, convention, cameras (``None``: the convention's default),
+    actions executed per query, timeouts (s), where to write rollout videos (``None``: none), and a horizon
+    that replaces the scenarios' own (``None``: theirs; for smoke runs, the record says which)."""
+
+    policy: str
+    convention: str = "pi0"
+    cameras: tuple[str, ...] | None = None
+    chunk_steps: int = 8
+    timeout_s: float = 30.0
+    connect_timeout_s: float = 10.0
+    video_dir: Path | None = None
+    horizon: int | None = None
+
+
+class _Trace:
+    """The recorder's sink: keeps the per-step safety columns a rollout video shows (no images)."""
+
+    def __init__(self) -> None:
+        self.frames: list[Frame] = []
+
+    def set_scene(self, mjb: bytes) -> None:
+        pass
+
+    def add_frame(self, frame: Frame) -> None:
+        self.frames.append(frame)
+
+    def end_episode(self, meta: Any) -> None:
+        pass
+
+    def discard_episode(self) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class RolloutResult:
+    """A rollout's record and its recorded frames (state, action, labels, monitor, physics state; no images),
+    frame ``t`` being the observation after ``t`` actions and the action taken from it."""
+
+    record: dict[str, Any]
+    frames: list[Frame]
+
+
+def run_rollout(job: RolloutJob, settings: LoopSettings) -> dict[str, Any]:
+    """The record of :func:`rollout` (what a worker process sends back)."""
+    return rollout(job, settings).record
+
+
+def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
+    """Roll the policy out on one scenario (see the module docstring).
+
+    Raises:
+        PolicyError: the server is unreachable, reported an error or sent a malformed reply.
+        DatasetError: the scenario cannot be restored.
+    """
+    restored = restore_scenario(job.scenarios / job.scenario)
+    scene, meta, recipe = restored.scene, restored.meta, restored.recipe
+    available = list(meta["cameras"])
+    cameras = settings.cameras or default_cameras(settings.convention, available)
+    check_cameras(settings.convention, cameras, available)
+    episode_seed = rollout_seed(job.seed, job.scenario)
+    controller = JointController(scene)
+    check = SuccessCheck(scene, recipe)
+    trace = _Trace()
+    recorder = Recorder(scene, scene.task.safety, trace, None, lambda _: check())
+    horizon = settings.horizon or int(meta["horizon"])
+    runner = EpisodeRunner(controller, recorder, SuccessGate(recipe.tasks.hold_steps), horizon,
+                           stop_on_violation=False)
+    ctrl = scene.data.ctrl[robot.arm_actuator_ids(scene.model)]
+    command = np.array([*ctrl[:7], 1.0 if scene.gripper.is_closed(ctrl[7]) else 0.0], dtype=np.float32)
+    rig = CameraRig(scene, cameras, int(meta["image_size"]))
+    video: list[dict[str, np.ndarray]] = []
+    end: str | None = None
+    t_success: int | None = None
+    chunk: list[np.ndarray] = []
+    try:
+        runner.start()
+        with PolicyClient(settings.policy, timeout=settings.timeout_s,
+                          connect_timeout=settings.connect_timeout_s) as client:
+            while end is None:
+                images = rig.render() if not chunk or settings.video_dir is not None else {}
+                if settings.video_dir is not None:
+                    video.append(images)
+                if not chunk:
+                    obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
+                                      episode_seed, runner.steps, job.scenario)
+                    try:
+                        reply = client.infer(encode(settings.convention, cameras, obs))
+                    except PolicyTimeout:
+                        end = "policy_timeout"
+                        break
+                    chunk = list(decode_actions(reply)[: settings.chunk_steps])
+                action = chunk.pop(0)
+                if not np.all(np.isfinite(action)):
+                    end = "bad_action"
+                    break
+                try:
+                    out = runner.step(action[:7], float(action[7]), holding=True)
+                except SimulationError:
+                    end = "sim_diverged"
+                    break
+                command = action
+                if out.end == "passed":
+                    end, t_success = "success", recorder.t
+                elif out.end == "timeout":
+                    end = "timeout"
+        firsts = recorder.first_violation
+        t_engage = recorder.t_engage
+    finally:
+        recorder.discard()
+        rig.close()
+    if settings.video_dir is not None:
+        from mgdata.evaluate.video import write_rollout_video
+
+        write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, trace.frames, scene, meta)
+    steps = [t for t in firsts.values() if t is not None]
+    record = {
+        "family": meta["family"], "task": f"task_{int(meta['task_id']):04d}", "condition": meta["condition"],
+        "seed": job.seed, "scenario": job.scenario, "episode_seed": episode_seed, "success": end == "success",
+        "engaged": t_engage is not None, "t_engage": t_engage, "t_violation": min(steps) if steps else None,
+        "t_violation_by": firsts, "t_success": t_success, "horizon": horizon,
+        "steps": runner.steps, "end": end,
+    }
+    return RolloutResult(record, trace.frames)
+
+
+def video_name(job: RolloutJob) -> str:
+    """``jar_task_0000_base_seed0``: a rollout video's file stem."""
+    return f"{job.scenario.replace('/', '_')}_seed{job.seed}"
