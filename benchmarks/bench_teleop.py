@@ -158,22 +158,13 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     scripts.append(JointScript([0, duration * 0.6, duration * 0.7], [0.0, 0.0, 0.6]))
     live = ManualClock()
     with build.bus(scripts, live) as emu:  # forked before this process is pinned: the device has its own core
-        all_cores = os.sched_getaffinity(0)
-        # pin this thread; the reader and the session's threads created from here on inherit the one core
-        os.sched_setaffinity(0, {sorted(all_cores)[0]})
         mapper = mapper_for("gello", text, config)
         bus = ServoBus("dynamixel", emu.port, mapper.motors)
-        read_times: list[tuple[float, float]] = []  # (start, wall s) of every leader read
-        read_positions = bus.read_positions
-
-        def timed_read() -> np.ndarray:
-            t = time.perf_counter()
-            ticks = read_positions()
-            read_times.append((t, time.perf_counter() - t))
-            return ticks
-
-        bus.read_positions = timed_read  # type: ignore[method-assign]
+        # the reader's process too, like the device: on a user's machine it is not confined to the loop's core
         reader = LeaderReader(bus, config.leader.reader_hz, stale_s=2.0)
+        all_cores = os.sched_getaffinity(0)
+        # pin this thread; the session's threads created from here on inherit the one core
+        os.sched_setaffinity(0, {sorted(all_cores)[0]})
         session: TeleopSession | None = None
         shot_at = steps * 3 // 4
         shot_ready = threading.Event()
@@ -206,6 +197,7 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
             go.wait()
             session.command("record")
             box["t0"] = time.perf_counter()
+            box["r0"] = reader.now()
             box["reads0"] = reader.reads
             cpu0, thread0 = time.process_time(), time.thread_time()
             box["threads0"] = thread_cpu()
@@ -281,11 +273,11 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     print(f"session loop: {n} ticks in {wall:.1f} s ({n / wall:.1f} Hz, target 20 Hz) on one core, "
           f"{session.skipped} slots skipped after overruns; meanwhile the leader was read at {rate:.0f} Hz "
           f"(target >= 100; {rate_life:.0f} Hz over the reader's whole life)")
-    t0, t1 = float(box["t0"]), float(box["t0"]) + wall  # type: ignore[arg-type]
-    reads = [w * 1000 for t, w in read_times if t0 <= t <= t1]
+    t0, t1 = float(box["r0"]), float(box["r0"]) + wall  # type: ignore[arg-type]
+    reads = [w * 1000 for t, w in reader.recent_reads if t0 <= t <= t1]
     print(f"  leader reads meanwhile (ms of wall time each): p50 {_pct(reads, 50):.1f}  "
           f"p95 {_pct(reads, 95):.1f}  max {max(reads, default=float('nan')):.1f}; "
-          f"{bus.read_errors} sync reads failed and were retried (over the whole run)")
+          f"{reader.retried} sync reads failed and were retried (over the whole run)")
     print(f"  lateness against the absolute schedule (ms): p50 {_pct(late, 50):.1f}  "
           f"p99 {_pct(late, 99):.1f}  max {late.max():.1f} (target p99 <= 5)")
     print(f"  step compute (ms): p50 {_pct(busy, 50):.1f}  p99 {_pct(busy, 99):.1f}  max {busy.max():.1f} "
