@@ -138,7 +138,8 @@ def _pct(values: list[float] | np.ndarray, q: float) -> float:
 
 
 def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: int | None,
-                 shadows: bool | None, realtime: int, browser_nice: int, wire: bool) -> None:
+                 shadows: bool | None, realtime: int, browser_nice: int, wire: bool, device_fifo: int
+                 ) -> None:
     from playwright.sync_api import sync_playwright
 
     build = ArmBuild.gello(seed=3)
@@ -158,6 +159,8 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     scripts.append(JointScript([0, duration * 0.6, duration * 0.7], [0.0, 0.0, 0.6]))
     live = ManualClock()
     with build.bus(scripts, live) as emu:  # forked before this process is pinned: the device has its own core
+        if device_fifo and emu.pid is not None:  # hardware answers whatever the load; an emulator may not
+            os.sched_setscheduler(emu.pid, os.SCHED_FIFO, os.sched_param(device_fifo))
         mapper = mapper_for("gello", text, config)
         bus = ServoBus("dynamixel", emu.port, mapper.motors)
         # the reader's process too, like the device: on a user's machine it is not confined to the loop's core
@@ -285,7 +288,7 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
           f"render+label+encode {timings.rendering / n * 1000:.1f}")
     cpu, control_cpu = float(box["cpu"]), float(box["control_cpu"])  # type: ignore[arg-type]
     print(f"  CPU per control step (ms, the budget is 50): this process {cpu / n * 1000:.1f}, of which the "
-          f"control thread {control_cpu / n * 1000:.1f} and the reader, view publisher and viser threads "
+          f"control thread {control_cpu / n * 1000:.1f} and the view publisher and viser threads "
           f"{(cpu - control_cpu) / n * 1000:.1f}")
     before, after = box["threads0"], box["threads"]  # type: ignore[assignment]
     per_thread = sorted(((after[k] - before.get(k, 0.0)) / n * 1000, k) for k in after)  # type: ignore[union-attr]
@@ -325,6 +328,9 @@ def main() -> None:
     parser.add_argument("--wire", action="store_true",
                         help="also timestamp monitor states on the wire with a second client "
                              "(benchmarks/monitor_wire_probe.py)")
+    parser.add_argument("--device-fifo", type=int, default=0, metavar="PRIO",
+                        help="run the emulated leader's process SCHED_FIFO at PRIO (it stands for hardware, "
+                             "which does not wait for the host's CPUs)")
     parser.add_argument("--skip-sync", action="store_true", help="skip the sync-read rates")
     args = parser.parse_args()
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; reply latency allowance "
@@ -335,7 +341,7 @@ def main() -> None:
     print(f"session: SCHED_FIFO priority {args.realtime}" if args.realtime else "session: normal scheduling",
           f"; browser nice {args.browser_nice}" if args.browser_nice else "; browser at default priority")
     session_loop(args.steps, args.screenshot, args.port, args.scene_every, args.shadows, args.realtime,
-                 args.browser_nice, args.wire)
+                 args.browser_nice, args.wire, args.device_fifo)
 
 
 if __name__ == "__main__":
