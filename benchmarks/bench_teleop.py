@@ -138,7 +138,8 @@ def _pct(values: list[float] | np.ndarray, q: float) -> float:
 
 
 def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: int | None,
-                 shadows: bool | None, realtime: int, browser_nice: int, wire: bool) -> None:
+                 shadows: bool | None, realtime: int, browser_nice: int, wire: bool, device_fifo: int
+                 ) -> None:
     from playwright.sync_api import sync_playwright
 
     build = ArmBuild.gello(seed=3)
@@ -158,22 +159,15 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     scripts.append(JointScript([0, duration * 0.6, duration * 0.7], [0.0, 0.0, 0.6]))
     live = ManualClock()
     with build.bus(scripts, live) as emu:  # forked before this process is pinned: the device has its own core
-        all_cores = os.sched_getaffinity(0)
-        # pin this thread; the reader and the session's threads created from here on inherit the one core
-        os.sched_setaffinity(0, {sorted(all_cores)[0]})
+        if device_fifo and emu.pid is not None:  # hardware answers whatever the load; an emulator may not
+            os.sched_setscheduler(emu.pid, os.SCHED_FIFO, os.sched_param(device_fifo))
         mapper = mapper_for("gello", text, config)
         bus = ServoBus("dynamixel", emu.port, mapper.motors)
-        read_times: list[tuple[float, float]] = []  # (start, wall s) of every leader read
-        read_positions = bus.read_positions
-
-        def timed_read() -> np.ndarray:
-            t = time.perf_counter()
-            ticks = read_positions()
-            read_times.append((t, time.perf_counter() - t))
-            return ticks
-
-        bus.read_positions = timed_read  # type: ignore[method-assign]
+        # the reader's process too, like the device: on a user's machine it is not confined to the loop's core
         reader = LeaderReader(bus, config.leader.reader_hz, stale_s=2.0)
+        all_cores = os.sched_getaffinity(0)
+        # pin this thread; the session's threads created from here on inherit the one core
+        os.sched_setaffinity(0, {sorted(all_cores)[0]})
         session: TeleopSession | None = None
         shot_at = steps * 3 // 4
         shot_ready = threading.Event()
@@ -206,6 +200,7 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
             go.wait()
             session.command("record")
             box["t0"] = time.perf_counter()
+            box["r0"] = reader.now()
             box["reads0"] = reader.reads
             cpu0, thread0 = time.process_time(), time.thread_time()
             box["threads0"] = thread_cpu()
@@ -281,11 +276,11 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
     print(f"session loop: {n} ticks in {wall:.1f} s ({n / wall:.1f} Hz, target 20 Hz) on one core, "
           f"{session.skipped} slots skipped after overruns; meanwhile the leader was read at {rate:.0f} Hz "
           f"(target >= 100; {rate_life:.0f} Hz over the reader's whole life)")
-    t0, t1 = float(box["t0"]), float(box["t0"]) + wall  # type: ignore[arg-type]
-    reads = [w * 1000 for t, w in read_times if t0 <= t <= t1]
+    t0, t1 = float(box["r0"]), float(box["r0"]) + wall  # type: ignore[arg-type]
+    reads = [w * 1000 for t, w in reader.recent_reads if t0 <= t <= t1]
     print(f"  leader reads meanwhile (ms of wall time each): p50 {_pct(reads, 50):.1f}  "
           f"p95 {_pct(reads, 95):.1f}  max {max(reads, default=float('nan')):.1f}; "
-          f"{bus.read_errors} sync reads failed and were retried (over the whole run)")
+          f"{reader.retried} sync reads failed and were retried (over the whole run)")
     print(f"  lateness against the absolute schedule (ms): p50 {_pct(late, 50):.1f}  "
           f"p99 {_pct(late, 99):.1f}  max {late.max():.1f} (target p99 <= 5)")
     print(f"  step compute (ms): p50 {_pct(busy, 50):.1f}  p99 {_pct(busy, 99):.1f}  max {busy.max():.1f} "
@@ -293,7 +288,7 @@ def session_loop(steps: int, screenshot: Path | None, port: int, scene_every: in
           f"render+label+encode {timings.rendering / n * 1000:.1f}")
     cpu, control_cpu = float(box["cpu"]), float(box["control_cpu"])  # type: ignore[arg-type]
     print(f"  CPU per control step (ms, the budget is 50): this process {cpu / n * 1000:.1f}, of which the "
-          f"control thread {control_cpu / n * 1000:.1f} and the reader, view publisher and viser threads "
+          f"control thread {control_cpu / n * 1000:.1f} and the view publisher and viser threads "
           f"{(cpu - control_cpu) / n * 1000:.1f}")
     before, after = box["threads0"], box["threads"]  # type: ignore[assignment]
     per_thread = sorted(((after[k] - before.get(k, 0.0)) / n * 1000, k) for k in after)  # type: ignore[union-attr]
@@ -333,6 +328,9 @@ def main() -> None:
     parser.add_argument("--wire", action="store_true",
                         help="also timestamp monitor states on the wire with a second client "
                              "(benchmarks/monitor_wire_probe.py)")
+    parser.add_argument("--device-fifo", type=int, default=0, metavar="PRIO",
+                        help="run the emulated leader's process SCHED_FIFO at PRIO (it stands for hardware, "
+                             "which does not wait for the host's CPUs)")
     parser.add_argument("--skip-sync", action="store_true", help="skip the sync-read rates")
     args = parser.parse_args()
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; reply latency allowance "
@@ -343,7 +341,7 @@ def main() -> None:
     print(f"session: SCHED_FIFO priority {args.realtime}" if args.realtime else "session: normal scheduling",
           f"; browser nice {args.browser_nice}" if args.browser_nice else "; browser at default priority")
     session_loop(args.steps, args.screenshot, args.port, args.scene_every, args.shadows, args.realtime,
-                 args.browser_nice, args.wire)
+                 args.browser_nice, args.wire, args.device_fifo)
 
 
 if __name__ == "__main__":

@@ -69,21 +69,23 @@ class ServoBus:
 
     Attributes:
         port: the device path; ``motors``: in reading order; ``read_errors``: failed sync reads so far
-        (each retried).
+        (each retried); ``latency_ms``: the adapter latency allowed for in every reply timeout
+        (:data:`DEFAULT_LATENCY_MS` unless given).
     """
 
     def __init__(self, family: str, port: str, motors: Sequence[Motor], *, baudrate: int = 1_000_000,
-                 retries: int = 3) -> None:
+                 retries: int = 3, latency_ms: float | None = None) -> None:
         self.family = family
         self.port = port
         self.baudrate = baudrate
         self.motors = tuple(motors)
         self.retries = retries
+        self.latency_ms = DEFAULT_LATENCY_MS if latency_ms is None else latency_ms
         self.drain_s = 0.05
         self.read_errors = 0
         self._f = _FAMILIES[family]
         self._sdk: Any = require(self._f.sdk)
-        self._sdk.port_handler.LATENCY_TIMER = DEFAULT_LATENCY_MS  # read by every timeout computation
+        self._sdk.port_handler.LATENCY_TIMER = self.latency_ms  # read by every timeout computation
         self._port = self._sdk.PortHandler(port)
         try:
             opened = self._port.openPort()

@@ -1,8 +1,9 @@
 """Real-time scheduling for the session loop on a loaded host (Linux ``SCHED_FIFO``).
 
 :func:`realtime` puts the calling thread (the control loop) at ``priority`` and every other thread of the
-process (the leader reader, the GL rasteriser, the operator view's publisher and server) one below it, so
-the loop wakes on time and preempts its own helpers, and none of them waits behind other processes' work.
+process (the GL rasteriser, the operator view's publisher and server) and of its helper processes (the
+leader reader) one below it, so the loop wakes on time and preempts its own helpers, and none of them waits
+behind other processes' work.
 Threads created later inherit their creator's policy. It needs ``CAP_SYS_NICE`` (root); without it the
 request is an error, never silently ignored. The kernel's real-time throttling (by default 95 % of each
 second) keeps a runaway thread from locking a core.
@@ -18,20 +19,23 @@ from __future__ import annotations
 import contextlib
 import os
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from mgdata.errors import RecipeError
 
 
-def _threads() -> list[int]:
-    return [int(t.name) for t in Path("/proc/self/task").iterdir()]
+def _threads(pid: int | str = "self") -> list[int]:
+    try:
+        return [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir()]
+    except FileNotFoundError:  # the process ended
+        return []
 
 
 @contextlib.contextmanager
-def realtime(priority: int) -> Iterator[None]:
-    """``SCHED_FIFO`` at ``priority`` (2 … 99) for this thread, ``priority - 1`` for the others, restored on
-    exit. ``priority`` 0 leaves scheduling alone."""
+def realtime(priority: int, helpers: Iterable[int] = ()) -> Iterator[None]:
+    """``SCHED_FIFO`` at ``priority`` (2 … 99) for this thread, ``priority - 1`` for the others and for the
+    threads of the ``helpers`` processes (pids), restored on exit. ``priority`` 0 leaves scheduling alone."""
     if priority == 0:
         yield
         return
@@ -39,8 +43,13 @@ def realtime(priority: int) -> Iterator[None]:
         raise RecipeError(f"[loop] realtime_priority = {priority}: must be 0 (off) or 2 … 99")
     me = threading.get_native_id()
     saved: dict[int, tuple[int, int]] = {}
+    helpers = tuple(helpers)
+
+    def everyone() -> list[int]:
+        return _threads() + [tid for pid in helpers for tid in _threads(pid)]
+
     try:
-        for tid in _threads():
+        for tid in everyone():
             try:
                 saved[tid] = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
                 prio = priority if tid == me else priority - 1
@@ -52,7 +61,7 @@ def realtime(priority: int) -> Iterator[None]:
                                   "this process lacks; set it to 0") from err
         yield
     finally:
-        for tid in _threads():  # threads started meanwhile go back to the default policy too
+        for tid in everyone():  # threads started meanwhile go back to the default policy too
             policy, prio = saved.get(tid, (os.SCHED_OTHER, 0))
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.sched_setscheduler(tid, policy, os.sched_param(prio))

@@ -2,7 +2,7 @@
 recorder, monitor and gate into the same LeRobot dataset (``source = gello|so101``).
 
 One control loop at the dataset rate (20 Hz, paced on the monotonic clock) takes the newest leader reading
-(the :class:`~teleop.reader.LeaderReader` thread reads at ≥ 100 Hz), maps it to an action and steps an
+(the :class:`~teleop.reader.LeaderReader` process reads at ≥ 100 Hz), maps it to an action and steps an
 :class:`~mgdata.engine.runner.EpisodeRunner`. Operator commands (browser buttons or terminal keys) are queued
 and applied at the top of a step:
 
@@ -192,15 +192,15 @@ class TeleopSession:
         Steps start on an absolute schedule ``t0 + k·dt`` (no drift; a late step is followed at once by the
         next one on time). A step more than one period behind skips the missed slots instead of bursting
         through them. While the loop runs the interpreter hands the GIL over every ``SWITCH_S`` so the
-        control thread is not held up by the leader reader's or the operator view's Python code; with
-        ``[loop] realtime_priority`` the process's threads run ``SCHED_FIFO`` (:mod:`teleop.priority`).
+        control thread is not held up by the operator view's Python code; with ``[loop] realtime_priority``
+        the process's threads and the leader reader's process run ``SCHED_FIFO`` (:mod:`teleop.priority`).
         """
         if self.reader is None:
             raise RecipeError("a live session needs a leader")
         switch = sys.getswitchinterval()
         sys.setswitchinterval(SWITCH_S)
         try:
-            with realtime(self.realtime_priority):
+            with realtime(self.realtime_priority, helpers=(self.reader.pid,)):
                 self._loop()
         finally:
             sys.setswitchinterval(switch)

@@ -86,6 +86,11 @@ class EmulatedBus:
         """Status packets corrupted so far."""
         return int(self._corrupted.value)
 
+    @property
+    def pid(self) -> int | None:
+        """The answering process's id (``None`` for a thread or before ``start()``)."""
+        return self._worker.pid if self.process else None
+
     def __enter__(self) -> EmulatedBus:
         self.start()
         return self
