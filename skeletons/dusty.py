@@ -119,6 +119,21 @@ def _outline(model: ObjectModel) -> np.ndarray:
     return box_corners(lo, np.array([model.size[0] / 2, model.size[1] / 2, model.size[2]]))
 
 
+def _slide_tilt(ctx: Context, carrier: str = "source", food: str = "food") -> float:
+    """Tilt (rad) of the carrier at which the food slides out along its lowest wall: the wall's slope below
+    the horizontal, ``tilt - 90° + flare`` (the wall's angle from the carrier's axis; 0 for a box), exceeds
+    the friction angle ``atan(mu)``, ``mu`` the larger sliding friction of the two objects' geoms (MuJoCo's
+    default contact mixing)."""
+    geo = ctx.scene.object_model(carrier).geometry
+    flare = 0.0
+    if "rim_radius" in geo and "bottom_radius" in geo:
+        flare = math.atan2(float(geo["rim_radius"]) - float(geo["bottom_radius"]), float(geo["height"]))
+    m = ctx.scene.model
+    roots = {m.body(carrier).id, m.body(food).id}
+    mu = max(float(m.geom_friction[g, 0]) for g in range(m.ngeom) if m.body_rootid[m.geom_bodyid[g]] in roots)
+    return math.pi / 2 - flare + math.atan(mu)
+
+
 def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation matrix of ``angle`` (rad) about the unit ``axis``."""
     a = axis / np.linalg.norm(axis)
@@ -142,6 +157,8 @@ class DustySkeleton(FamilySkeleton):
                 Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved",
                       0.0, 0.2),
                 Param("wipe_hover", float, "m above the tray's floor the press starts", 0.0, 0.1),
+                Param("press_travel", float, "m past ``wipe_hover`` the press may go (the sponge gives "
+                      "and the servos lag)", 0.0, 0.05),
                 Param("press_force", float, "N at which the guarded press stops", 0.1, 50.0),
                 Param("max_press_force", float, "N the press never exceeds", 0.1, 100.0),
                 Param("stroke_force", float, "N the strokes press with at least", 0.1, 50.0),
@@ -163,6 +180,9 @@ class DustySkeleton(FamilySkeleton):
                       "the mouth may pour over if the centre's stance is out of reach", -0.2, 0.2),
                 Param("pour_clearance", float, "m the tilted bowl's outline keeps above the tray's rim",
                       0.0, 0.3),
+                Param("pour_max_joint_change", float, "rad a joint may move in one tilt step", 0.1, 6.3),
+                Param("pour_slide_margin_deg", float, "deg the final tilt keeps past the one at which the "
+                      "food slides off the carrier's lowest wall", 0.0, 60.0),
                 Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
                       1, 2000)),
         variation=(*(k for k in PICK_AND_CARRY_KEYS.variation if k.name in _PICK_KNOBS),
@@ -192,7 +212,8 @@ class DustySkeleton(FamilySkeleton):
             s.linear("sponge_lift", "sponge_lift", allow=(("sponge", "table"),), **held),  # type: ignore[arg-type]
             s.free("wipe_above", "wipe_above", **held),  # type: ignore[arg-type]
             s.guarded("wipe_press", (0.0, 0.0, -1.0), until=s.force("dest", float(p["press_force"])),
-                      max_force=float(p["max_press_force"]), max_distance=float(p["wipe_hover"]) + 0.004,
+                      max_force=float(p["max_press_force"]),
+                      max_distance=float(p["wipe_hover"]) + float(p["press_travel"]),
                       gripper="close", attached="sponge", allow=(("sponge", "table"),)),
             *[s.guarded(f"wipe_{i}", f"wipe_{i}", until=s.force("dest", float(p["stroke_force"])),
                         max_force=float(p["max_stroke_force"]), press=(0.0, 0.0, -1.0),
@@ -342,9 +363,11 @@ class DustySkeleton(FamilySkeleton):
 
     def _wipe_start(self, ctx: Context) -> Pose:
         """Over the patch's first corner, ``wipe_hover`` up: the hand turned about the vertical by the first
-        of 0°, 180°, ±90° that the arm reaches (IK from the current command)."""
+        of 0°, 180°, ±90° that the arm reaches holding the sponge, collision-free (IK from the current
+        command; its solution seeds the segment's IK, ``ctx.q_hints``, so the move goes where was checked)."""
         tcp, sponge = ctx.commanded_tcp(), ctx.object_pose("sponge")
         rng = ctx.variation.rng("wipe_turn")
+        held = Attachment("sponge", (ctx.tcp_pose().inverse() @ sponge).matrix())
         first = None
         for yaw in (0.0, math.pi, math.pi / 2, -math.pi / 2):
             turn = _turn(UP, yaw)
@@ -356,7 +379,8 @@ class DustySkeleton(FamilySkeleton):
             pose = Pose.from_pos_mat(start + offset + hover, turn @ tcp.rotation())
             first = first or (pose, offset)
             try:
-                ctx.planner.ik(pose, ctx.q_cmd, rng)
+                ctx.q_hints["wipe_above"] = ctx.planner.ik(pose, ctx.q_cmd, rng, collision_free=True,
+                                                           attached=held)
             except MotionFailure:
                 continue
             ctx.memo["wipe_offset"] = offset
@@ -406,20 +430,50 @@ class DustySkeleton(FamilySkeleton):
         turn = _turn(axis, angle * k / int(ctx.param("pour_steps")))
         return Pose.from_pos_mat(pos, turn @ Pose(pos, quat0).rotation())
 
+    @staticmethod
+    def _tilt_chain(ctx: Context, pos: np.ndarray, turns: list[np.ndarray], rng: np.random.Generator,
+                    allowed: AllowedContacts, held: Attachment) -> list[np.ndarray] | None:
+        """Arm configurations holding the TCP at ``pos`` turned by each of ``turns`` (collision-free holding
+        the bowl), or None if one is out of reach or a tilt step would move a joint more than
+        ``pour_max_joint_change`` (another IK branch: the arm would swing round). Solved from the level
+        stance on, each turn from the last one's solution; failing that, from the last turn back, so that
+        the most tilted pose, the hardest to reach, picks the arm's branch."""
+        limit = float(ctx.param("pour_max_joint_change"))
+        for order in (turns, turns[::-1]):
+            q, qs = ctx.q_cmd, []
+            for r in order:
+                try:
+                    q_next = ctx.planner.ik(Pose.from_pos_mat(pos, r), q, rng, collision_free=True,
+                                            allowed=allowed, attached=held)
+                except MotionFailure:
+                    break
+                if qs and float(np.max(np.abs(q_next - q))) > limit:
+                    break
+                q = q_next
+                qs.append(q)
+            else:
+                return qs if order is turns else qs[::-1]
+        return None
+
     def _pour_plan(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """The pour stance: TCP position, level orientation (the current one), tilt axis and angle. The
-        stance puts the bowl's mouth, at the final tilt, over a point of the tray's cavity (its centre first,
-        then ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`)
-        ``pour_clearance`` above the tray's rim at each tilt step; the first stance whose every tilt step the
-        arm reaches collision-free (IK, holding the bowl) is taken, at the drawn angle or 10° or 20° less;
-        none ends the attempt (``target_fail``)."""
+        """The pour stance: TCP position, level orientation, tilt axis and angle. The level orientation is
+        the current one, else turned about the vertical so that the grasp's radius points away from the
+        robot (or half way): the tilt then lowers the rim opposite the hand. The stance puts the bowl's
+        mouth, at the final tilt, over a point of the tray's cavity (its centre first, then
+        ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`) ``pour_clearance``
+        above the tray's rim at each tilt step. The tilt is the drawn angle but at least
+        ``pour_slide_margin_deg`` past the food's sliding tilt (:func:`_slide_tilt`), else 10° or 20° more.
+        The first stance whose every tilt step the arm reaches collision-free (:meth:`_tilt_chain`) is
+        taken, and those solutions become the segments' IK seeds
+        (``ctx.q_hints``: the executed tilt follows the checked branch); none ends the attempt
+        (``target_fail``)."""
         tcp, bowl = ctx.commanded_tcp(), ctx.object_pose("source")
         in_tcp = tcp.inverse() @ bowl
         radial = tcp.pos - bowl.pos
         radial[2] = 0.0
         if np.linalg.norm(radial) < 1e-4:
             raise AttemptFailed("target_fail", "the carrier is held at its axis: no side to pour over")
-        axis = np.cross(radial / np.linalg.norm(radial), UP)  # turning about it takes the far side down
+        radial /= np.linalg.norm(radial)
         model = ctx.scene.object_model("source")
         corners, mouth = _outline(model), np.array([0.0, 0.0, model.size[2]])
         tray, cavity = ctx.object_pose("dest"), ctx.scene.object_model("dest").cavity
@@ -430,24 +484,30 @@ class DustySkeleton(FamilySkeleton):
         rng = ctx.variation.rng("pour_stance")
         offsets = [(0.0, 0.0), *((float(a), float(b)) for a, b in
                                  np.asarray(ctx.param("pour_aim_offsets")).reshape(-1, 2))]
-        for angle in (math.radians(ctx.variation["pour_angle_deg"] - d) for d in (0.0, 10.0, 20.0)):
-            turns = [_turn(axis, angle * k / n) @ rot0 for k in range(n + 1)]
-            low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
-                      for r in turns)
-            mouth_off = turns[-1] @ in_tcp.pos + (turns[-1] @ in_tcp.rotation()) @ mouth
-            for dx, dy in offsets:
-                aim = tray.pos + tray.rotation() @ np.array([dx, dy, cavity.rim_z])
-                pos = np.array([aim[0] - mouth_off[0], aim[1] - mouth_off[1],
-                                aim[2] + float(ctx.param("pour_clearance")) - low])
-                plan = (pos, tcp.quat, axis, angle)
-                q = ctx.q_cmd
-                try:
-                    for r in turns:
-                        q = ctx.planner.ik(Pose.from_pos_mat(pos, r), q, rng, collision_free=True,
-                                           allowed=allowed, attached=held)
-                except MotionFailure:
-                    continue
-                return plan
-        drawn = ctx.variation["pour_angle_deg"]
+        away = tray.pos - ctx.scene.data.xpos[ctx.scene.model.body(ROOT_BODY).id]
+        facing = math.atan2(away[1], away[0]) - math.atan2(radial[1], radial[0])
+        facing = math.atan2(math.sin(facing), math.cos(facing))  # turn putting the radial away from the robot
+        yaws = (0.0, facing, facing / 2) if abs(facing) > math.radians(10.0) else (0.0,)
+        least = math.degrees(_slide_tilt(ctx)) + float(ctx.param("pour_slide_margin_deg"))
+        first = max(float(ctx.variation["pour_angle_deg"]), least)
+        for angle in (math.radians(min(first + d, 150.0)) for d in (0.0, 10.0, 20.0)):
+            for yaw in yaws:
+                level = _turn(UP, yaw) @ rot0
+                axis = np.cross(_turn(UP, yaw) @ radial, UP)  # turning about it lowers the opposite rim
+                turns = [_turn(axis, angle * k / n) @ level for k in range(n + 1)]
+                low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
+                          for r in turns)
+                mouth_off = turns[-1] @ in_tcp.pos + (turns[-1] @ in_tcp.rotation()) @ mouth
+                for dx, dy in offsets:
+                    aim = tray.pos + tray.rotation() @ np.array([dx, dy, cavity.rim_z])
+                    pos = np.array([aim[0] - mouth_off[0], aim[1] - mouth_off[1],
+                                    aim[2] + float(ctx.param("pour_clearance")) - low])
+                    qs = self._tilt_chain(ctx, pos, turns, rng, allowed, held)
+                    if qs is None:
+                        continue
+                    names = ("pour_start", *(f"pour_{k}" for k in range(n)))
+                    ctx.q_hints.update(zip(names, qs, strict=True))
+                    return pos, Pose.from_pos_mat(pos, level).quat, axis, angle
         raise AttemptFailed("target_fail", f"no pour stance over the tray is reachable holding the bowl "
-                            f"({len(offsets)} aim points; {drawn:.0f}°, 10° and 20° less)")
+                            f"({len(offsets)} aim points, {len(yaws)} turns; {first:.0f}°, 10° and 20° "
+                            "more)")

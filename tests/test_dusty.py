@@ -16,6 +16,8 @@ the predicates:
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 import pytest
@@ -188,3 +190,60 @@ def test_pouring_onto_the_dusty_tray_breaks_clean_before_pour(recipe: Recipe, gr
     assert t_v is not None and abs(t_v - landed) <= 1, (t_v, landed)
     assert len(frames) - 1 == t_v and probe.left[t_v - 1].all(), "all the dust still on the tray"
     assert result.t_violation["food_not_touched"] is None
+
+
+RAMP_S = 3.0
+
+
+def _tilt_bowl(recipe: Recipe, tilt_deg: float) -> tuple[float, float]:
+    """Raise the task's bowl with its food 25 cm, turn it slowly (over ``RAMP_S``) about a horizontal axis
+    through its foot to ``tilt_deg`` and hold it there 1 s, driving its free joint directly each physics
+    step (a kinematic hand); return the food centre's distance (m) from the bowl's axis and its height
+    along it, in the bowl's frame, from raw MuJoCo data."""
+    from mgdata.sim.scene import build_scene
+
+    scene = build_scene(base_task(recipe, TASK))
+    m, d = scene.model, scene.data
+    bowl, food = m.body("source"), m.body("food")
+    qa, da = m.jnt_qposadr[bowl.jntadr[0]], m.jnt_dofadr[bowl.jntadr[0]]
+    fa = m.jnt_qposadr[food.jntadr[0]]
+    d.qpos[qa + 2] += 0.25
+    d.qpos[fa + 2] += 0.25
+    d.qvel[:] = 0.0
+    pos0, quat0 = d.qpos[qa:qa + 3].copy(), d.qpos[qa + 3:qa + 7].copy()
+    ramp, hold = round(RAMP_S / m.opt.timestep), round(1.0 / m.opt.timestep)
+    rate = math.radians(tilt_deg) / (ramp * m.opt.timestep)  # rad/s
+    for k in range(ramp + hold):
+        half = math.radians(tilt_deg) * min(1.0, k / ramp) / 2
+        turn = np.array([math.cos(half), math.sin(half), 0.0, 0.0])  # about world x
+        d.qpos[qa:qa + 3] = pos0
+        mujoco.mju_mulQuat(d.qpos[qa + 3:qa + 7], turn, quat0)
+        d.qvel[da:da + 6] = 0.0
+        if k < ramp:  # the free joint's angular velocity is in the body frame
+            d.qvel[da + 3:da + 6] = d.xmat[bowl.id].reshape(3, 3).T @ np.array([rate, 0.0, 0.0])
+        mujoco.mj_step(m, d)
+    rot = d.xmat[bowl.id].reshape(3, 3)
+    local = (rawdata.box_centre(m, d, food.id) - d.xpos[bowl.id]) @ rot
+    return float(np.hypot(local[0], local[1])), float(local[2])
+
+
+def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> None:
+    """The pour's least tilt (:func:`_slide_tilt` plus the recipe's margin: the bowl's lowest wall steeper
+    than the friction angle) against physics: there the food has left the slowly turned bowl, while at 20°
+    it stays in (the rig holds food). The static bound is conservative: turned like this, the candy
+    already slid out at 45° (it stayed at 30°, or not when turned faster: its slide down the floor
+    carries it over the low rim)."""
+    from types import SimpleNamespace
+
+    from mgdata.sim.scene import build_scene
+    from skeletons.dusty import _slide_tilt
+
+    scene = build_scene(base_task(recipe, TASK))
+    geo = scene.object_model("source").geometry
+    least = math.degrees(_slide_tilt(SimpleNamespace(scene=scene)))  # type: ignore[arg-type]
+    least += float(recipe.params["pour_slide_margin_deg"])
+    assert 90.0 < least < 150.0
+    r, z = _tilt_bowl(recipe, 20.0)
+    assert r < float(geo["rim_radius"]) and 0.0 < z < float(geo["height"]), "still in the bowl"
+    r, z = _tilt_bowl(recipe, least)
+    assert r > float(geo["rim_radius"]) + 0.02 or z > float(geo["height"]) + 0.02, "out of the bowl"

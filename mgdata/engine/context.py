@@ -36,6 +36,9 @@ class Context:
         q_cmd: the arm configuration last commanded (7,); segments are planned from here.
         executed: segment name -> the joint trajectory it executed (for ``reverse``).
         memo: attempt-local scratch space for the skeleton (chosen grasp, measured geometry …).
+        q_hints: runtime-target name -> an arm configuration (7,) the skeleton already found for it (e.g.
+            while checking that a sequence of poses is reachable one after the other); the IK of a free
+            segment to that target starts there, so it executes the branch that was checked.
     """
 
     task: TaskSpec
@@ -46,6 +49,7 @@ class Context:
     q_cmd: np.ndarray
     executed: dict[str, JointTrajectory] = field(default_factory=dict)
     memo: dict[str, Any] = field(default_factory=dict)
+    q_hints: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def params(self) -> Mapping[str, Any]:

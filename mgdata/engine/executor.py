@@ -281,7 +281,8 @@ class Executor:
         if seg.kind == "linear":
             return planner.linear(ctx.q_cmd, target, rng, orientation=seg.orientation, allowed=allowed,
                                   attached=attached)
-        q_goal = planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=attached)
+        seed = ctx.q_hints.get(seg.target, ctx.q_cmd) if isinstance(seg.target, str) else ctx.q_cmd
+        q_goal = planner.ik(target, seed, rng, collision_free=True, allowed=allowed, attached=attached)
         return planner.free(ctx.q_cmd, q_goal, rng, allowed=allowed, attached=attached)
 
     def _guarded(self, seg: MotionSegment, ctx: Context, timings: Timings) -> GuardedMove:

@@ -67,37 +67,61 @@ def chain_ik(
     """Solve ``poses`` one after the other from ``q_start``; raises ``ik_fail`` or ``path_discontinuity``.
 
     A waypoint that does not converge from the previous solution is retried ``ik.config.restarts`` times
-    from seeds jittered by ``rng`` (half a joint step at most), each subject to the same jump limit.
+    from seeds jittered by ``rng`` (half a joint step at most), each subject to the same jump limit. A step
+    whose joints still jump too far is split in halves, up to ``refine_depth`` times (:func:`_reach`): near
+    a singularity the joints move fast but continuously, so the halves' jumps shrink and the line keeps the
+    intermediate points; a branch flip keeps its full jump in one half however fine the split.
     """
     q = np.asarray(q_start, dtype=np.float64)
     qs, dist, angle = [q], [0.0], [0.0]
     n = len(poses)
+    prev = start
     for i, pose in enumerate(poses):
         where = f"line waypoint {i + 1}/{n} at {np.round(pose.pos, 3).tolist()}"
-        failure = None
-        for k in range(ik.config.restarts + 1):
-            seed = q if k == 0 else q + rng.uniform(-0.5, 0.5, size=7) * config.max_joint_step
-            result = ik.attempt(pose, seed, posture=q)
-            jump = float(np.max(np.abs(result.q - q)))
-            if not result.converged(ik.config):
-                failure = failure or MotionFailure(
-                    "ik_fail", f"{where}: residual {result.pos_err:.4f} m, {result.rot_err:.3f} rad "
-                    f"(tolerance {ik.config.pos_tol:g} m, {ik.config.rot_tol:g} rad)")
-            elif jump > config.max_joint_step:
-                joint = int(np.argmax(np.abs(result.q - q))) + 1
-                failure = MotionFailure("path_discontinuity", f"{where}: joint{joint} jumps {jump:.3f} rad "
-                                        f"(limit {config.max_joint_step:g} rad per step)")
-            else:
-                break
-        else:
-            assert failure is not None
-            raise failure
-        prev = poses[i - 1] if i > 0 else start
-        dist.append(dist[-1] + float(np.linalg.norm(pose.pos - prev.pos)))
-        angle.append(angle[-1] + prev.angle_to(pose))
-        q = result.q
-        qs.append(q)
+        for point, q_point in _reach(ik, q, prev, pose, config, rng, where, config.refine_depth):
+            dist.append(dist[-1] + float(np.linalg.norm(point.pos - prev.pos)))
+            angle.append(angle[-1] + prev.angle_to(point))
+            qs.append(q_point)
+            prev = point
+        q = qs[-1]
     return LinePath(np.array(qs), np.array(dist), np.array(angle))
+
+
+def _reach(ik: IKSolver, q: np.ndarray, prev: Pose, pose: Pose, config: LinearConfig,
+           rng: np.random.Generator, where: str, depth: int) -> list[tuple[Pose, np.ndarray]]:
+    """The waypoints (pose, joints) from ``prev`` (solved as ``q``) to ``pose``: ``pose`` alone, or, if its
+    joints jump past ``max_joint_step``, the two halves of the step solved in turn (``depth`` more times)."""
+    try:
+        return [(pose, _solve_step(ik, q, pose, config, rng, where))]
+    except MotionFailure as fail:
+        if fail.stage != "path_discontinuity" or depth == 0:
+            raise
+    mid = Pose((prev.pos + pose.pos) / 2, slerp(prev.quat, pose.quat, 0.5))
+    first = _reach(ik, q, prev, mid, config, rng, where, depth - 1)
+    return first + _reach(ik, first[-1][1], mid, pose, config, rng, where, depth - 1)
+
+
+def _solve_step(ik: IKSolver, q: np.ndarray, pose: Pose, config: LinearConfig, rng: np.random.Generator,
+                where: str) -> np.ndarray:
+    """IK of one waypoint from the previous solution ``q``, with jittered restarts; the solution's joints
+    move at most ``max_joint_step`` from ``q``."""
+    failure = None
+    for k in range(ik.config.restarts + 1):
+        seed = q if k == 0 else q + rng.uniform(-0.5, 0.5, size=7) * config.max_joint_step
+        result = ik.attempt(pose, seed, posture=q)
+        jump = float(np.max(np.abs(result.q - q)))
+        if not result.converged(ik.config):
+            failure = failure or MotionFailure(
+                "ik_fail", f"{where}: residual {result.pos_err:.4f} m, {result.rot_err:.3f} rad "
+                f"(tolerance {ik.config.pos_tol:g} m, {ik.config.rot_tol:g} rad)")
+        elif jump > config.max_joint_step:
+            joint = int(np.argmax(np.abs(result.q - q))) + 1
+            failure = MotionFailure("path_discontinuity", f"{where}: joint{joint} jumps {jump:.3f} rad "
+                                    f"(limit {config.max_joint_step:g} rad per step)")
+        else:
+            return result.q
+    assert failure is not None
+    raise failure
 
 
 def line_deviation(tcp_positions: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

@@ -79,6 +79,7 @@ class LinearConfig:
     step: float = 0.005  # m between IK waypoints
     rot_step: float = 0.05  # rad between IK waypoints (slerp)
     max_joint_step: float = 0.12  # rad, a larger joint change between waypoints is a discontinuity
+    refine_depth: int = 3  # times a step whose joints jump too far is halved before it is a discontinuity
     speed: float = 0.12  # m/s, TCP speed cap
     angular_speed: float = 0.6  # rad/s, TCP angular speed cap
     accel: float = 0.6  # m/s², TCP acceleration cap along the line
@@ -104,7 +105,7 @@ class MotionConfig:
 
 _MAY_BE_ZERO = frozenset({"restarts", "restart_sigma", "posture_cost", "polish_radius", "damping",
                           "limit_margin", "margin", "self_margin", "range", "reduce_steps", "shortcut_steps",
-                          "check_margin"})
+                          "check_margin", "refine_depth"})
 """Numeric fields for which 0 means "off"; every other number must be positive."""
 
 

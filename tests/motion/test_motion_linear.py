@@ -90,3 +90,58 @@ def test_reverse_replays_the_samples_backwards(planner: MotionPlanner, q_above: 
     np.testing.assert_array_equal(up.q, down.q[::-1])
     assert up.q[-1].tobytes() == q_above.tobytes() and up.duration == down.duration
     assert np.linalg.norm(planner.fk(up.q[0]).pos - np.array([0.6, 0.35, 0.1])) < 1e-3
+
+
+# A lift straight up from a low top-down grasp near the base, on the arm's flipped-shoulder branch (joint 1 at
+# 128°, joint 3 at -147°): the dusty family's sponge lift of task 18, draw 0. Near the top the redundant
+# joints swing fast (joint 3 by 0.2 rad over the 5 mm step), continuously.
+SINGULAR_Q = np.array([2.23832808, -0.42976816, -2.56949757, -2.62600226, -1.00418712, 2.87069363,
+                       -1.73265779])
+SINGULAR_LIFT = 0.0912  # m
+
+
+def test_a_fast_but_continuous_passage_is_refined_not_a_discontinuity() -> None:
+    """A step whose joints jump past ``max_joint_step`` is halved until they don't: the line then holds
+    every intermediate point on the straight line (checked with raw MuJoCo kinematics), no step jumps, and
+    without the refinement the same line is a ``path_discontinuity``."""
+    import dataclasses
+
+    import mujoco
+    from motion_scenes import home_data, scene
+
+    from mgdata.motion import MotionConfig
+    from mgdata.sim.robot import TCP_SITE
+
+    model = scene(wall=False)
+    config = MotionConfig()
+    coarse = dataclasses.replace(config, linear=dataclasses.replace(config.linear, refine_depth=0))
+    start = None
+    for cfg in (coarse, config):
+        mp = MotionPlanner(model, cfg)
+        mp.sync(home_data(model))
+        start = mp.fk(SINGULAR_Q)
+        target = Pose(start.pos + np.array([0.0, 0.0, SINGULAR_LIFT]), start.quat)
+        if cfg is coarse:
+            with pytest.raises(MotionFailure) as info:
+                mp.line(SINGULAR_Q, target, np.random.default_rng(0))
+            assert info.value.stage == "path_discontinuity"
+            continue
+        line = mp.line(SINGULAR_Q, target, np.random.default_rng(0))
+    assert start is not None
+    steps = len(line.q) - 1
+    assert steps > SINGULAR_LIFT / config.linear.step + 1  # refined: more points than the 5 mm grid
+    assert np.max(np.abs(np.diff(line.q, axis=0))) <= config.linear.max_joint_step
+    data = mujoco.MjData(model)
+    site = model.site(TCP_SITE).id
+    tcp, rot_err = [], []
+    for q in line.q:  # raw MuJoCo forward kinematics of every waypoint
+        data.qpos[:7] = q
+        mujoco.mj_kinematics(model, data)
+        tcp.append(data.site_xpos[site].copy())
+        rel = start.rotation().T @ data.site_xmat[site].reshape(3, 3)
+        rot_err.append(np.arccos(np.clip((np.trace(rel) - 1) / 2, -1, 1)))
+    tcp = np.array(tcp)
+    assert line_deviation(tcp, start.pos, start.pos + np.array([0.0, 0.0, SINGULAR_LIFT])) < 1e-3
+    assert np.all(np.diff(tcp[:, 2]) > 0)  # monotonically up
+    assert abs(tcp[-1, 2] - start.pos[2] - SINGULAR_LIFT) < 1e-3
+    assert max(rot_err) < 0.01
