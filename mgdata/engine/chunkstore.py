@@ -3,10 +3,11 @@
 The compiled models of the locked scenarios are ~5.8 MB of MJB each and mostly the same bytes (the Panda's
 meshes, the table, the shared object meshes and textures), shifted by whatever differs between scenes. Each
 string is cut where a rolling hash of its last :data:`WINDOW` bytes has its top :data:`MASK_BITS` bits zero
-(content-defined chunking), so a cut depends only on the bytes around it and an insertion or a changed
-array moves the cuts near it only; chunks are :data:`MIN_CHUNK` … :data:`MAX_CHUNK` bytes (about 32 KiB on
-average). A chunk is stored as ``<store>/<sha[:2]>/<sha>.gz`` (gzip level 6, mtime 0), named by the SHA-256
-of its uncompressed bytes, written atomically; the string is the concatenation of its chunks in order::
+(content-defined chunking, :func:`cut_points`), so a cut depends only on the bytes around it and an
+insertion or a changed array moves the cuts near it only; chunks are :data:`MIN_CHUNK` … :data:`MAX_CHUNK`
+bytes (about 32 KiB on average). A chunk is stored as ``<store>/<sha[:2]>/<sha>.gz`` (gzip level 6,
+mtime 0), named by the SHA-256 of its uncompressed bytes and written atomically; the string is the
+concatenation of its chunks in order::
 
     data = b"".join(gzip.decompress((store / h[:2] / f"{h}.gz").read_bytes()) for h in chunks)
 
@@ -34,25 +35,26 @@ from mgdata.errors import DatasetError
 WINDOW = 48  # bytes the rolling hash sees
 MASK_BITS = 15  # a cut where the hash's top 15 bits are zero: ~1 in 32 KiB positions
 MIN_CHUNK, MAX_CHUNK = 8 << 10, 256 << 10  # bytes
-_P = 0x9E3779B97F4A7C15  # odd multiplier of the polynomial hash (mod 2**64)
 _GEAR = np.array(
     [int.from_bytes(hashlib.sha256(bytes([i])).digest()[:8], "little") for i in range(256)], dtype=np.uint64
 )
 
 
 def cut_points(data: bytes) -> list[int]:
-    """End offsets of the chunks of ``data`` (the last is ``len(data)``; none for empty data)."""
+    """End offsets of the chunks of ``data`` (the last is ``len(data)``; none for empty data).
+
+    The rolling hash after byte ``i`` is the moving sum ``H_i = sum(gear[b] for b in data[i-WINDOW+1 : i+1])
+    mod 2**64`` of a fixed random 64-bit value per byte value (three vector passes over the string); byte
+    ``i`` ends a chunk candidate where ``H_i``'s top :data:`MASK_BITS` bits are zero. Walking the candidates
+    in order, one less than :data:`MIN_CHUNK` after the last cut is skipped, and a gap longer than
+    :data:`MAX_CHUNK` is cut every :data:`MAX_CHUNK` bytes.
+    """
     n = len(data)
     if n == 0:
         return []
-    x = _GEAR[np.frombuffer(data, dtype=np.uint8)]
-    with np.errstate(over="ignore"):
-        # H_i = sum_{k<WINDOW} x_{i-k} P^k  (mod 2**64), from prefix sums of x_j P^-j
-        powers = _powers(_P, n)
-        inverse = _powers(pow(_P, -1, 1 << 64), n)
-        prefix = np.cumsum(x * inverse, dtype=np.uint64)
-        lagged = np.concatenate([np.zeros(WINDOW, np.uint64), prefix[:-WINDOW]]) if n > WINDOW else 0
-        rolling = (prefix - lagged) * powers
+    prefix = np.cumsum(_GEAR[np.frombuffer(data, dtype=np.uint8)], dtype=np.uint64)  # wraps mod 2**64
+    rolling = prefix.copy()
+    rolling[WINDOW:] -= prefix[:-WINDOW]
     candidates = np.flatnonzero((rolling >> np.uint64(64 - MASK_BITS)) == 0) + 1
     cuts: list[int] = []
     last = 0
@@ -70,13 +72,6 @@ def cut_points(data: bytes) -> list[int]:
     if last != n:
         cuts.append(n)
     return cuts
-
-
-def _powers(base: int, n: int) -> np.ndarray:
-    """``base**i mod 2**64`` for i in 0 … n-1 (uint64; numpy's integer products wrap)."""
-    out = np.full(n, base, dtype=np.uint64)
-    out[0] = 1
-    return np.cumprod(out, dtype=np.uint64)
 
 
 def chunk_path(store: Path, sha: str) -> Path:

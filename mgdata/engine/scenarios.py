@@ -44,6 +44,7 @@ from mgdata.atomic import write_bytes_atomic, write_text_atomic
 from mgdata.engine import chunkstore
 from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
 from mgdata.errors import DatasetError, RecipeError, SceneError
+from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 from mgdata.record.physics import STATE_SPEC, model_bytes, model_from_bytes, physics_state, set_physics_state
 from mgdata.sim.cameras import CAMERA_NAMES
@@ -67,15 +68,30 @@ CHUNKS = "chunks"  # <out>/chunks/: the models' chunks, shared by every scenario
 STATE, META = "state.npy", "scenario.json"
 
 
+GENERATE_CONDITIONS: tuple[str, ...] = (*CONDITIONS, "all")
+"""What ``mgdata generate --condition`` accepts: one condition, or ``all`` (:func:`attempt_condition`)."""
+
+
+def attempt_condition(choice: str, draw: int) -> str:
+    """The condition draw ``draw`` of a task is generated in: ``choice``, or for ``all`` the five
+    conditions in turn (``CONDITIONS[draw mod 5]``), so a resumed or sharded run cycles the same way."""
+    if choice == "all":
+        return CONDITIONS[draw % len(CONDITIONS)]
+    if choice not in CONDITIONS:
+        raise RecipeError(f"--condition {choice!r}: expected one of {', '.join(GENERATE_CONDITIONS)}")
+    return choice
+
+
 def variant(
-    recipe: Recipe, base: TaskSpec, condition: str
+    recipe: Recipe, base: TaskSpec, condition: str, grasps: GraspDB | None = None
 ) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
-    """Condition ``condition`` of gated base task ``base``: the task, its provenance and the gate's report.
+    """Condition ``condition`` of gated base task ``base``: the task, its provenance and the gate's report
+    (gated against ``grasps``, default: the project's grasp database).
 
     Raises:
         RecipeError: unknown condition, or no location proposal passed the gate within ``tries``.
     """
-    grasps = cached_grasp_db(grasps_dir())
+    grasps = grasps or cached_grasp_db(grasps_dir())
     if condition == "base":
         task, provenance = base, {"kind": "base"}
     elif condition == "target":
@@ -96,7 +112,9 @@ def variant(
     return task, provenance, {"passed": True, "attempts": 1, "rejected": {}}
 
 
-def _location(recipe: Recipe, base: TaskSpec, grasps: Any) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
+def _location(
+    recipe: Recipe, base: TaskSpec, grasps: GraspDB
+) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
     tries = ood_settings(recipe).location.tries
     rejected: Counter[str] = Counter()
     last = ""

@@ -20,14 +20,11 @@ M64 = (1 << 64) - 1
 
 
 def _reference_cuts(data: bytes, mask_bits: int, lo: int, hi: int) -> list[int]:
-    """The documented rule, byte by byte: H_i = sum over the last WINDOW bytes of gear[b] * P^age."""
+    """The documented rule, byte by byte: H_i = sum of gear[b] over the last WINDOW bytes, mod 2**64."""
     gear = [int.from_bytes(hashlib.sha256(bytes([i])).digest()[:8], "little") for i in range(256)]
-    powers = [pow(chunkstore._P, k, 1 << 64) for k in range(WINDOW)]
     cuts, last = [], 0
     for i in range(len(data)):
-        h = 0
-        for k in range(min(WINDOW, i + 1)):
-            h = (h + gear[data[i - k]] * powers[k]) & M64
+        h = sum(gear[b] for b in data[max(0, i - WINDOW + 1) : i + 1]) & M64
         end = i + 1
         if h >> (64 - mask_bits) == 0 and end - last >= lo:
             while end - last > hi:
