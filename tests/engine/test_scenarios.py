@@ -39,7 +39,13 @@ from mgdata.tasks.base import draw_task
 from mgdata.tasks.ood import GUARD, PALETTE
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import family_recipes, load_recipe
-from mgdata.tasks.variants import language_variant, location_proposal, mean_colour, target_variant
+from mgdata.tasks.variants import (
+    environment_variant,
+    language_variant,
+    location_proposal,
+    mean_colour,
+    target_variant,
+)
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 NAME_FIELDS = ("names", "paths", "names_map")
@@ -159,6 +165,51 @@ def test_the_room_is_visual_only_and_changes_most_of_the_view(clutter) -> None: 
     for cam in OVERVIEW:
         changed = (np.abs(ia[cam].astype(int) - ib[cam].astype(int)).max(axis=2) > 10).mean()
         assert changed >= 0.30, (cam, changed)
+
+
+ROOM_BOOKKEEPING = {"body_geomadr", "body_geomnum", "bvh_nodeid"}  # index maps shifted by the room's geoms
+ROOM_VISUAL = {"tex_data", "mat_texrepeat"}  # the floor and sky textures, their materials
+
+
+def test_the_room_leaves_every_physics_field_of_robot_table_objects_and_cameras_equal() -> None:
+    """Every compiled-model array, field by field: only geoms and lights are appended (the base's rows
+    unchanged), only textures change values, and every body keeps exactly its own geoms."""
+    recipe = load_family_recipe("jar")
+    base = _placed(recipe, 0)
+    task, _ = environment_variant(base, recipe)
+    ma, mb = build_scene(base).model, build_scene(task).model
+    fa, fb = _model_fields(ma), _model_fields(mb)
+    assert fa.keys() == fb.keys()
+    is_room = np.array([mb.geom(g).name.startswith("room/") for g in range(mb.ngeom)])
+    kept = np.flatnonzero(~is_room)
+    assert len(kept) == ma.ngeom and is_room.sum() > 20 and mb.nlight > ma.nlight
+    grown = {k for k in fa if fa[k].shape != fb[k].shape}
+    assert grown and all(k.startswith(("geom_", "light_")) for k in grown), grown
+    for k in sorted(grown):
+        rows = kept if k.startswith("geom_") else np.arange(ma.nlight)
+        assert np.array_equal(fa[k], fb[k][rows], equal_nan=True), k
+    changed = {k for k in fa.keys() - grown if not np.array_equal(fa[k], fb[k], equal_nan=True)}
+    assert changed <= ROOM_BOOKKEEPING | ROOM_VISUAL, changed - ROOM_BOOKKEEPING - ROOM_VISUAL
+    for body in range(1, ma.nbody):  # every body but the world: the same geoms, in the same order
+        ga = range(ma.body_geomadr[body], ma.body_geomadr[body] + ma.body_geomnum[body])
+        gb = range(mb.body_geomadr[body], mb.body_geomadr[body] + mb.body_geomnum[body])
+        assert [ma.geom(g).name for g in ga] == [mb.geom(g).name for g in gb]
+        assert all(not is_room[g] for g in gb)
+    assert all(mb.geom(g).name.startswith("room/") or g in kept for g in range(mb.ngeom))
+
+
+@pytest.mark.parametrize("family", family_recipes())
+def test_the_environment_variant_changes_most_of_every_overview_camera(family: str) -> None:
+    recipe = load_family_recipe(family)
+    base = _placed(recipe, 0)
+    task, prov = environment_variant(base, recipe)
+    cameras = [c for c in recipe.tasks.cameras if c in OVERVIEW]
+    assert cameras
+    with CameraRig(build_scene(base), cameras, 64) as ra, CameraRig(build_scene(task), cameras, 64) as rb:
+        ia, ib = ra.render(), rb.render()
+    for cam in cameras:
+        changed = (np.abs(ia[cam].astype(int) - ib[cam].astype(int)).max(axis=2) > 10).mean()
+        assert changed >= 0.30, (family, prov["room"], cam, changed)
 
 
 def _bare_room(name: str) -> mujoco.MjModel:
