@@ -491,6 +491,21 @@ def test_a_scenario_is_byte_deterministic_and_verifies(tmp_path: Path) -> None:
     scene = build_scene(variant(recipe, base_task(recipe, 0), "environment")[0])
     assert meta["room"] and np.array_equal(data.qpos, scene.data.qpos)
     assert list(verify(tmp_path / "a")) == [("jar/task_0000/environment", None)]
+    # the store keeps shared bytes once: a second condition of the task adds only a few new chunks
+    chunks = tmp_path / "a" / "chunks"
+    before = {p: p.stat().st_size for p in chunks.rglob("*.gz")}
+    build_scenario(recipe, 0, "language", tmp_path / "a")
+    write_manifest(tmp_path / "a")
+    added = {p: p.stat().st_size for p in chunks.rglob("*.gz")}.keys() - before.keys()
+    model, _, lang = load_scenario(scenario_dir(tmp_path / "a", "jar", 0, "language"))
+    assert lang["model_size"] > 5_000_000 and len(lang["model_chunks"]) > 50
+    share = sum(p.stat().st_size for p in added) / sum(before.values())
+    assert 0 < share < 0.1, (len(added), share)
+    assert _changed_fields(model, build_scene(base_task(recipe, 0)).model) == set()
+    next(iter(added)).write_bytes(next(iter(before)).read_bytes())  # a chunk with other content
+    problems = dict(verify(tmp_path / "a"))
+    assert problems["jar/task_0000/environment"] is None
+    assert "SHA-256 differs from its name" in str(problems["jar/task_0000/language"])
     (tmp_path / "a" / "jar/task_0000/environment/state.npy").write_bytes(b"x")  # tampered
     assert "SHA-256 differs" in str(next(iter(verify(tmp_path / "a")))[1])
 
