@@ -4,6 +4,7 @@ Builds the chosen tasks of each family into a fresh temporary folder (nothing is
 timing every scenario, and prints per family and condition the mean seconds, the location proposals the gate
 needed, and the time all of the family's tasks would take at that rate (one process; the issue's target is
 1,000 scenarios in 30 min on 2 cores). The CPU time is printed too, since a busy machine inflates wall time.
+Last, the model store: the MJB bytes of all built scenarios against the bytes their shared chunks take.
 
 Run: ``.venv/bin/python benchmarks/bench_scenarios.py --family jar clutter_dry clutter_liquid --tasks 3``
 """
@@ -18,7 +19,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.scenarios import build_scenario
+from mgdata.engine.scenarios import CHUNKS, build_scenario
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.tasks.variants import CONDITIONS
 
@@ -59,6 +60,13 @@ def main() -> None:
             est = per_task * recipe.tasks.count
             total_est += est
             print(f"  all {recipe.tasks.count} tasks × 5 conditions: {est / 60:.1f} CPU min")
+        metas = [json.loads(p.read_text()) for p in sorted(Path(tmp).glob("*/task_*/*/scenario.json"))]
+        mjb = sum(m["model_size"] for m in metas)
+        stored = sum(p.stat().st_size for p in (Path(tmp) / CHUNKS).rglob("*.gz"))
+        print(
+            f"model store: {len(metas)} models, {mjb / 1e6:.0f} MB of MJB in {stored / 1e6:.1f} MB of chunks "
+            f"({stored / len(metas) / 1e3:.0f} kB per scenario)"
+        )
     print(
         f"total for {', '.join(args.family)}: {total_est / 60:.1f} CPU min "
         f"({total_est / 120:.1f} min on 2 idle cores)"

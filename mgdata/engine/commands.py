@@ -121,6 +121,9 @@ def register(app: typer.Typer) -> None:
             "--render-after/--render-during",
             help="Render only the recorded episodes, after the gate, from their physics states (same "
                  "bytes as rendering every step during execution, faster when attempts fail).")] = True,
+        condition: Annotated[str, typer.Option(
+            help="Generate in a scenario condition: base, target, language, location, environment (or env), "
+                 "or all (a task's draws cycle through the five).")] = "base",
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
 
@@ -139,7 +142,7 @@ def register(app: typer.Typer) -> None:
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
                           render_after=render_after, per_task=per_task, shard=parse_shard(shard),
-                          ray=ray)
+                          ray=ray, condition="environment" if condition == "env" else condition)
         console = plain_console()
         if family == ALL:
             views: list[ProgressView] = []

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.resume import DrawCursor, RunState
+from mgdata.engine.scenarios import attempt_condition
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.summary import RunSummary
 from mgdata.engine.variation import attempt_seed
@@ -89,6 +90,10 @@ class GenerateJob:
             dataset's bytes are the same either way.
         ray: run the attempts on Ray actors instead of local processes (``--ray [ADDRESS]``): ``"local"``
             for a private local instance, else a cluster address; ``workers`` actors, the same bytes.
+        condition: the scenario condition the demos are generated in (``--condition``): ``base``, an OOD
+            variant of each task as ``mgdata scenarios`` builds it (``target``, ``language``, ``location``,
+            ``environment``), or ``all`` (draw ``d`` of a task in ``CONDITIONS[d mod 5]``). Each episode
+            records its condition; a dataset is resumed and merged only with the same condition.
     """
 
     family: str
@@ -106,6 +111,7 @@ class GenerateJob:
     per_task: int | None = None
     shard: tuple[int, int] | None = None
     ray: str | None = None
+    condition: str = "base"
 
 
 def failed_path(out: Path) -> Path:
@@ -161,6 +167,12 @@ def inputs_digest(recipe: Recipe, grasps: Path) -> str:
     return h.hexdigest()[:16]
 
 
+def run_digest(inputs: str, condition: str) -> str:
+    """The identity digest of a run: the inputs' digest, with ``/<condition>`` unless it is ``base``, so a
+    dataset is never resumed or merged with demos of another condition."""
+    return inputs if condition == "base" else f"{inputs}/{condition}"
+
+
 def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
     """Load and check every input an attempt worker will read, in this process, so bad input is one error
     before any dataset or worker exists: the recipe (against its skeleton's keys), the spec (each constraint
@@ -175,6 +187,7 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
         raise RecipeError(f"--seed must be >= 0, got {job.seed}")
     if job.max_attempts is not None and job.max_attempts < 1:
         raise RecipeError(f"--max-attempts must be at least 1, got {job.max_attempts}")
+    attempt_condition(job.condition, 0)  # a known condition
     recipe = load_family_recipe(job.recipe or job.family)
     if recipe.family != job.family:
         raise RecipeError(f"{recipe.path} is a {recipe.family!r} recipe, not {job.family!r}")
@@ -253,7 +266,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         job = dataclasses.replace(job, n=job.per_task * len(tasks))
     schema = dataset_schema(recipe)
     out = Path(job.out)
-    identity = RunState(job.family, job.seed, inputs_digest(recipe, grasps))
+    identity = RunState(job.family, job.seed, run_digest(inputs_digest(recipe, grasps), job.condition))
     try:
         _writable_dir(out, "--out")
         writer = _open_dataset(out, schema, job, recipe, identity, kept_only=True)
@@ -292,7 +305,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         # per-run folder under staging/ (which the writer's open() clears after a crash)
         stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
         config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video,
-                              job.render_after)
+                              job.render_after, job.condition)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary

@@ -116,14 +116,19 @@ def register(app: typer.Typer) -> None:
         plain_console().print(str(write_sheet(out, family, task, sheet)))
 
     @group.command("verify")
-    def verify_cmd(out: Annotated[Path, typer.Option(help="Scenario folder.")] = DEFAULT_OUT) -> None:
-        """Reload every scenario: file hashes, the state round trip and every camera's first observation.
-        Exit status 1 if any differs."""
+    def verify_cmd(
+        out: Annotated[Path, typer.Option(help="Scenario folder.")] = DEFAULT_OUT,
+        workers: Annotated[int, typer.Option(help="Processes checking scenarios in parallel.")] = 1,
+    ) -> None:
+        """Reload every scenario: model and state hashes, the state round trip and every camera's first
+        observation. Exit status 1 if any differs."""
         from mgdata.engine.scenarios import verify
 
+        if workers < 1:
+            raise RecipeError(f"--workers must be at least 1, got {workers}")
         console = plain_console()
         bad = n = 0
-        for path, problem in verify(out):
+        for path, problem in verify(out, workers):
             n += 1
             if problem:
                 bad += 1

@@ -3,12 +3,14 @@ an evaluator restores the exact initial scene without this checkout (format: doc
 
 One scenario is a folder ``<out>/<family>/task_NNNN/<condition>/`` holding
 
-* ``scene.mjb.gz``: the compiled MuJoCo model (MJB, gzip without a timestamp; procedural textures and the room
-  survive, unlike ``to_xml``);
+* the compiled MuJoCo model (MJB; procedural textures and the room survive, unlike ``to_xml``), as a list of
+  content-defined chunks in the folder's shared store ``<out>/chunks/`` (:mod:`mgdata.engine.chunkstore`):
+  the 1,000 models are mostly the same bytes (the Panda's meshes), stored once;
 * ``state.npy``: the settled initial physics state (``mgdata.record.physics.STATE_SPEC`` layout, float64);
 * ``scenario.json``: what the condition changed (provenance), seeds, prompt and the three prompt forms, the
-  safety spec, goal, objects, cameras, the gate's report, and SHA-256 hashes of the two files and of the
-  first rendered observation of every camera. It is written last: a folder without it is incomplete.
+  safety spec, goal, objects, cameras, the gate's report, the model's chunks and SHA-256, the state file's
+  SHA-256 and that of the first rendered observation of every camera. It is written last: a folder
+  without it is incomplete.
 
 Every condition passes the same initial-state gate as a base task (``mgdata.engine.init_gate``); a location
 proposal that fails it is resampled within the axis (``[ood.location] tries``), never dropped. Building is
@@ -23,7 +25,6 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import gzip
 import hashlib
 import io
 import json
@@ -40,8 +41,10 @@ import numpy as np
 
 from mgdata import __version__
 from mgdata.atomic import write_bytes_atomic, write_text_atomic
+from mgdata.engine import chunkstore
 from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
 from mgdata.errors import DatasetError, RecipeError, SceneError
+from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 from mgdata.record.physics import STATE_SPEC, model_bytes, model_from_bytes, physics_state, set_physics_state
 from mgdata.sim.cameras import CAMERA_NAMES
@@ -59,20 +62,36 @@ from mgdata.tasks.variants import (
     target_variant,
 )
 
-FORMAT = "mgdata-scenario/1"
+FORMAT = "mgdata-scenario/2"
 MANIFEST = "manifest.json"
-SCENE, STATE, META = "scene.mjb.gz", "state.npy", "scenario.json"
+CHUNKS = "chunks"  # <out>/chunks/: the models' chunks, shared by every scenario under <out>
+STATE, META = "state.npy", "scenario.json"
+
+
+GENERATE_CONDITIONS: tuple[str, ...] = (*CONDITIONS, "all")
+"""What ``mgdata generate --condition`` accepts: one condition, or ``all`` (:func:`attempt_condition`)."""
+
+
+def attempt_condition(choice: str, draw: int) -> str:
+    """The condition draw ``draw`` of a task is generated in: ``choice``, or for ``all`` the five
+    conditions in turn (``CONDITIONS[draw mod 5]``), so a resumed or sharded run cycles the same way."""
+    if choice == "all":
+        return CONDITIONS[draw % len(CONDITIONS)]
+    if choice not in CONDITIONS:
+        raise RecipeError(f"--condition {choice!r}: expected one of {', '.join(GENERATE_CONDITIONS)}")
+    return choice
 
 
 def variant(
-    recipe: Recipe, base: TaskSpec, condition: str
+    recipe: Recipe, base: TaskSpec, condition: str, grasps: GraspDB | None = None
 ) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
-    """Condition ``condition`` of gated base task ``base``: the task, its provenance and the gate's report.
+    """Condition ``condition`` of gated base task ``base``: the task, its provenance and the gate's report
+    (gated against ``grasps``, default: the project's grasp database).
 
     Raises:
         RecipeError: unknown condition, or no location proposal passed the gate within ``tries``.
     """
-    grasps = cached_grasp_db(grasps_dir())
+    grasps = grasps or cached_grasp_db(grasps_dir())
     if condition == "base":
         task, provenance = base, {"kind": "base"}
     elif condition == "target":
@@ -93,7 +112,9 @@ def variant(
     return task, provenance, {"passed": True, "attempts": 1, "rejected": {}}
 
 
-def _location(recipe: Recipe, base: TaskSpec, grasps: Any) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
+def _location(
+    recipe: Recipe, base: TaskSpec, grasps: GraspDB
+) -> tuple[TaskSpec, dict[str, Any], dict[str, Any]]:
     tries = ood_settings(recipe).location.tries
     rejected: Counter[str] = Counter()
     last = ""
@@ -139,7 +160,6 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
     task, provenance, gate = variant(recipe, base, condition)
     scene = build_scene(task)
     mjb = model_bytes(scene.model)
-    packed = gzip.compress(mjb, compresslevel=6, mtime=0)
     state = physics_state(scene.model, scene.data)
     state_bytes = _npy(state)
     observation = first_observation_hashes(
@@ -172,11 +192,12 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
         "gate": gate | {"facts": _jsonable(dict(task.gate))},
         "state_spec": STATE_SPEC,
         "state_size": int(state.size),
-        "files": {SCENE: _sha(packed), STATE: _sha(state_bytes)},
+        "files": {STATE: _sha(state_bytes)},
         "model_sha256": _sha(mjb),
+        "model_size": len(mjb),
+        "model_chunks": chunkstore.put(_store(out), mjb),
         "first_observation_sha256": observation,
     }
-    write_bytes_atomic(folder / SCENE, packed)
     write_bytes_atomic(folder / STATE, state_bytes)
     text = json.dumps(meta, indent=1, sort_keys=True) + "\n"
     write_text_atomic(folder / META, text)
@@ -269,38 +290,46 @@ def load_scenario(folder: Path) -> tuple[mujoco.MjModel, mujoco.MjData, dict[str
     """The model and data of a stored scenario, at its initial state, and its metadata (checked hashes)."""
     folder = Path(folder)
     meta = json.loads((folder / META).read_text(encoding="utf-8"))
-    mjb, state_bytes = (folder / SCENE).read_bytes(), (folder / STATE).read_bytes()
-    for name, blob in ((SCENE, mjb), (STATE, state_bytes)):
-        if _sha(blob) != meta["files"][name]:
-            raise DatasetError(f"{folder / name}: SHA-256 differs from {META}")
-    mjb = gzip.decompress(mjb)
-    if _sha(mjb) != meta["model_sha256"]:
-        raise DatasetError(f"{folder / SCENE}: the model's SHA-256 differs from {META}")
-    model = model_from_bytes(mjb)
+    if meta.get("format") != FORMAT:
+        raise DatasetError(f"{folder / META}: format {meta.get('format')!r}, this mgdata reads {FORMAT!r}")
+    state_bytes = (folder / STATE).read_bytes()
+    if _sha(state_bytes) != meta["files"][STATE]:
+        raise DatasetError(f"{folder / STATE}: SHA-256 differs from {META}")
+    model = model_from_bytes(_model_bytes(folder, meta))
     data = mujoco.MjData(model)
     set_physics_state(model, data, np.load(io.BytesIO(state_bytes)))
     return model, data, meta
 
 
-def verify(out: Path) -> Iterator[tuple[str, str | None]]:
-    """Each manifest entry reloaded: file hashes, state round trip and first-observation hashes.
-    Yields (path, problem or None)."""
-    for entry in read_manifest(out):
-        folder = Path(out) / entry["path"]
-        try:
-            model, data, meta = load_scenario(folder)
-            state = np.load(io.BytesIO((folder / STATE).read_bytes()))
-            if not np.array_equal(physics_state(model, data), state):
-                raise DatasetError("the restored state differs from state.npy")
-            images = first_observation_hashes(model, state, list(meta["cameras"]), meta["image_size"])
-            bad = [c for c, h in images.items() if h != meta["first_observation_sha256"][c]]
-            if bad:
-                raise DatasetError(f"first observation differs for camera(s) {', '.join(bad)}")
-            if _sha((folder / META).read_bytes()) != entry["sha256"]:
-                raise DatasetError(f"{META} differs from the manifest's hash")
-            yield entry["path"], None
-        except (DatasetError, OSError, KeyError, ValueError) as err:
-            yield entry["path"], str(err)
+def verify(out: Path, workers: int = 1) -> Iterator[tuple[str, str | None]]:
+    """Each manifest entry reloaded: model and state hashes, the state round trip and first-observation
+    hashes, in manifest order. Yields (path, problem or None). ``workers`` > 1 checks in that many
+    ``spawn``-ed processes."""
+    jobs = [(str(out), entry) for entry in read_manifest(out)]
+    if workers <= 1:
+        yield from map(_verify_one, jobs)
+        return
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        yield from pool.map(_verify_one, jobs, chunksize=4)
+
+
+def _verify_one(job: tuple[str, dict[str, Any]]) -> tuple[str, str | None]:
+    out, entry = job
+    folder = Path(out) / entry["path"]
+    try:
+        model, data, meta = load_scenario(folder)
+        state = np.load(io.BytesIO((folder / STATE).read_bytes()))
+        if not np.array_equal(physics_state(model, data), state):
+            raise DatasetError("the restored state differs from state.npy")
+        images = first_observation_hashes(model, state, list(meta["cameras"]), meta["image_size"])
+        bad = [c for c, h in images.items() if h != meta["first_observation_sha256"][c]]
+        if bad:
+            raise DatasetError(f"first observation differs for camera(s) {', '.join(bad)}")
+        if _sha((folder / META).read_bytes()) != entry["sha256"]:
+            raise DatasetError(f"{META} differs from the manifest's hash")
+        return entry["path"], None
+    except (DatasetError, OSError, KeyError, ValueError) as err:
+        return entry["path"], str(err)
 
 
 def write_sheet(
@@ -336,6 +365,18 @@ def write_sheet(
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
+def _store(out: Path) -> Path:
+    return Path(out) / CHUNKS
+
+
+def _model_bytes(folder: Path, meta: dict[str, Any]) -> bytes:
+    """The scenario's MJB from the shared chunk store (``<out>/chunks``, three folders up), hash-checked."""
+    mjb = chunkstore.get(_store(folder.parents[2]), meta["model_chunks"])
+    if _sha(mjb) != meta["model_sha256"]:
+        raise DatasetError(f"{folder / META}: the model's SHA-256 differs from its chunks'")
+    return mjb
+
+
 def _inputs(recipe: Recipe, task_id: int, condition: str) -> dict[str, Any]:
     """What a kept scenario must have been built from: the recipe, spec, sim and motion settings and grasps
     (``mgdata.engine.generate.inputs_digest``), the versions, the task and condition."""
@@ -359,12 +400,14 @@ def _complete(folder: Path, inputs: dict[str, Any]) -> dict[str, Any] | None:
         meta = json.loads(text)
     except (OSError, ValueError):
         return None
-    if meta.get("inputs") != inputs:
+    if meta.get("format") != FORMAT or meta.get("inputs") != inputs:
         return None
-    for name in (SCENE, STATE):
-        blob = folder / name
-        if not blob.is_file() or _sha(blob.read_bytes()) != meta["files"][name]:
+    try:
+        if _sha((folder / STATE).read_bytes()) != meta["files"][STATE]:
             return None
+        _model_bytes(folder, meta)
+    except (OSError, DatasetError):
+        return None
     return _entry(folder, folder.parents[2], meta, text)
 
 

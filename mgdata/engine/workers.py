@@ -38,6 +38,7 @@ from types import TracebackType
 from mgdata.engine.deferred import DeferredRenderSink
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
+from mgdata.engine.scenarios import attempt_condition, variant
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.timing import Timings
 from mgdata.errors import WorkerError
@@ -46,6 +47,7 @@ from mgdata.record.episode import EpisodeSink
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.video import VideoSettings
 from mgdata.sim.renderer import CameraRig
+from mgdata.tasks.taskspec import TaskSpec
 
 _PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
@@ -63,6 +65,7 @@ class WorkerConfig:
     keep_failed: bool
     video: VideoSettings
     render_after: bool = True
+    condition: str = "base"
 
 
 @dataclass(frozen=True)
@@ -83,32 +86,39 @@ class Worker:
         self.recipe = load_family_recipe(config.recipe_path)
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
-        self._executors: collections.OrderedDict[int, tuple[Executor, CameraRig | None]] = \
+        self._tasks: dict[tuple[int, str], TaskSpec] = {}
+        self._executors: collections.OrderedDict[tuple[int, str], tuple[Executor, CameraRig | None]] = \
             collections.OrderedDict()
 
-    def _executor(self, task_id: int, timings: Timings) -> tuple[Executor, CameraRig | None]:
-        """The task's executor and, when rendering after the gate, the rig that renders its episodes (the
-        time a new one takes goes into ``timings``)."""
-        if task_id in self._executors:
-            self._executors.move_to_end(task_id)
-            return self._executors[task_id]
+    def _executor(self, task_id: int, condition: str, timings: Timings) -> tuple[Executor, CameraRig | None]:
+        """The executor of the task in ``condition`` (the task as ``mgdata scenarios`` builds it) and, when
+        rendering after the gate, the rig that renders its episodes (the time a new one takes goes into
+        ``timings``)."""
+        key = (task_id, condition)
+        if key in self._executors:
+            self._executors.move_to_end(key)
+            return self._executors[key]
         while len(self._executors) >= EXECUTOR_CACHE:
             self._close(*self._executors.popitem(last=False)[1])
         after = self.config.render_after
-        with timings.measure("planning"):  # the initial-state gate's IK (once per task and process)
-            task = base_task(self.recipe, task_id, self.config.grasps_dir)
+        if key not in self._tasks:  # a location variant is gated anew: build each once per process
+            with timings.measure("planning"):  # the initial-state gate's IK
+                task = base_task(self.recipe, task_id, self.config.grasps_dir)
+                self._tasks[key] = task if condition == "base" else variant(self.recipe, task, condition,
+                                                                            self.grasps)[0]
+        task = self._tasks[key]
         with timings.measure("setup"):
             ex = Executor(task, self.recipe, grasps=self.grasps, base_seed=self.config.base_seed,
                           render=not after)
             rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) if after else None
-        self._executors[task_id] = (ex, rig)
+        self._executors[key] = (ex, rig)
         return ex, rig
 
     def run(self, task_id: int, draw: int) -> AttemptDone:
         path = self.config.stage_dir / f"task{task_id:04d}-draw{draw:06d}"
         stager = EpisodeStager(path, self.schema, self.config.video)
         setup = Timings()
-        ex, rig = self._executor(task_id, setup)
+        ex, rig = self._executor(task_id, attempt_condition(self.config.condition, draw), setup)
         deferred = DeferredRenderSink(stager, rig) if rig is not None else None
         sink: EpisodeSink = deferred if deferred is not None else stager
         try:

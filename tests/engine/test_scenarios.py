@@ -39,7 +39,13 @@ from mgdata.tasks.base import draw_task
 from mgdata.tasks.ood import GUARD, PALETTE
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import family_recipes, load_recipe
-from mgdata.tasks.variants import language_variant, location_proposal, mean_colour, target_variant
+from mgdata.tasks.variants import (
+    environment_variant,
+    language_variant,
+    location_proposal,
+    mean_colour,
+    target_variant,
+)
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 NAME_FIELDS = ("names", "paths", "names_map")
@@ -61,6 +67,10 @@ def _model_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 def _changed_fields(a: mujoco.MjModel, b: mujoco.MjModel) -> set[str]:
     fa, fb = _model_fields(a), _model_fields(b)
     return {k for k in fa if fa[k].shape != fb[k].shape or not np.array_equal(fa[k], fb[k], equal_nan=True)}
+
+
+def _files(root: Path) -> list[Path]:
+    return sorted(p.relative_to(root) for p in root.rglob("*") if p.is_file())
 
 
 def _trajectory(task, kick: str) -> np.ndarray:  # type: ignore[no-untyped-def]
@@ -155,6 +165,51 @@ def test_the_room_is_visual_only_and_changes_most_of_the_view(clutter) -> None: 
     for cam in OVERVIEW:
         changed = (np.abs(ia[cam].astype(int) - ib[cam].astype(int)).max(axis=2) > 10).mean()
         assert changed >= 0.30, (cam, changed)
+
+
+ROOM_BOOKKEEPING = {"body_geomadr", "body_geomnum", "bvh_nodeid"}  # index maps shifted by the room's geoms
+ROOM_VISUAL = {"tex_data", "mat_texrepeat"}  # the floor and sky textures, their materials
+
+
+def test_the_room_leaves_every_physics_field_of_robot_table_objects_and_cameras_equal() -> None:
+    """Every compiled-model array, field by field: only geoms and lights are appended (the base's rows
+    unchanged), only textures change values, and every body keeps exactly its own geoms."""
+    recipe = load_family_recipe("jar")
+    base = _placed(recipe, 0)
+    task, _ = environment_variant(base, recipe)
+    ma, mb = build_scene(base).model, build_scene(task).model
+    fa, fb = _model_fields(ma), _model_fields(mb)
+    assert fa.keys() == fb.keys()
+    is_room = np.array([mb.geom(g).name.startswith("room/") for g in range(mb.ngeom)])
+    kept = np.flatnonzero(~is_room)
+    assert len(kept) == ma.ngeom and is_room.sum() > 20 and mb.nlight > ma.nlight
+    grown = {k for k in fa if fa[k].shape != fb[k].shape}
+    assert grown and all(k.startswith(("geom_", "light_")) for k in grown), grown
+    for k in sorted(grown):
+        rows = kept if k.startswith("geom_") else np.arange(ma.nlight)
+        assert np.array_equal(fa[k], fb[k][rows], equal_nan=True), k
+    changed = {k for k in fa.keys() - grown if not np.array_equal(fa[k], fb[k], equal_nan=True)}
+    assert changed <= ROOM_BOOKKEEPING | ROOM_VISUAL, changed - ROOM_BOOKKEEPING - ROOM_VISUAL
+    for body in range(1, ma.nbody):  # every body but the world: the same geoms, in the same order
+        ga = range(ma.body_geomadr[body], ma.body_geomadr[body] + ma.body_geomnum[body])
+        gb = range(mb.body_geomadr[body], mb.body_geomadr[body] + mb.body_geomnum[body])
+        assert [ma.geom(g).name for g in ga] == [mb.geom(g).name for g in gb]
+        assert all(not is_room[g] for g in gb)
+    assert all(mb.geom(g).name.startswith("room/") or g in kept for g in range(mb.ngeom))
+
+
+@pytest.mark.parametrize("family", family_recipes())
+def test_the_environment_variant_changes_most_of_every_overview_camera(family: str) -> None:
+    recipe = load_family_recipe(family)
+    base = _placed(recipe, 0)
+    task, prov = environment_variant(base, recipe)
+    cameras = [c for c in recipe.tasks.cameras if c in OVERVIEW]
+    assert cameras
+    with CameraRig(build_scene(base), cameras, 64) as ra, CameraRig(build_scene(task), cameras, 64) as rb:
+        ia, ib = ra.render(), rb.render()
+    for cam in cameras:
+        changed = (np.abs(ia[cam].astype(int) - ib[cam].astype(int)).max(axis=2) > 10).mean()
+        assert changed >= 0.30, (family, prov["room"], cam, changed)
 
 
 def _bare_room(name: str) -> mujoco.MjModel:
@@ -329,7 +384,8 @@ def test_scenarios_are_byte_deterministic_across_processes_and_reload_bit_identi
     write_manifest(tmp_path / "b")
     assert entry["path"] == "jar/task_0001/target"
     files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
-    assert len(files) == 4  # model, state, metadata + manifest
+    assert len([f for f in files if f.parts[0] == "chunks"]) >= 20  # the model's chunks
+    assert len(files) == len(_files(tmp_path / "b"))  # + state, metadata, manifest
     for f in files:
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
     model, data, meta = load_scenario(scenario_dir(tmp_path / "a", "jar", 1, "target"))
@@ -427,14 +483,29 @@ def test_a_scenario_is_byte_deterministic_and_verifies(tmp_path: Path) -> None:
     for out in ("a", "b"):
         build_scenario(recipe, 0, "environment", tmp_path / out)
         write_manifest(tmp_path / out)
-    files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
-    assert len(files) == 4
+    files = _files(tmp_path / "a")
+    assert files == _files(tmp_path / "b") and len(files) > 4
     for f in files:
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
     _, data, meta = load_scenario(scenario_dir(tmp_path / "a", "jar", 0, "environment"))
     scene = build_scene(variant(recipe, base_task(recipe, 0), "environment")[0])
     assert meta["room"] and np.array_equal(data.qpos, scene.data.qpos)
     assert list(verify(tmp_path / "a")) == [("jar/task_0000/environment", None)]
+    # the store keeps shared bytes once: a second condition of the task adds only a few new chunks
+    chunks = tmp_path / "a" / "chunks"
+    before = {p: p.stat().st_size for p in chunks.rglob("*.gz")}
+    build_scenario(recipe, 0, "language", tmp_path / "a")
+    write_manifest(tmp_path / "a")
+    added = {p: p.stat().st_size for p in chunks.rglob("*.gz")}.keys() - before.keys()
+    model, _, lang = load_scenario(scenario_dir(tmp_path / "a", "jar", 0, "language"))
+    assert lang["model_size"] > 5_000_000 and len(lang["model_chunks"]) > 50
+    share = sum(p.stat().st_size for p in added) / sum(before.values())
+    assert 0 < share < 0.1, (len(added), share)
+    assert _changed_fields(model, build_scene(base_task(recipe, 0)).model) == set()
+    next(iter(added)).write_bytes(next(iter(before)).read_bytes())  # a chunk with other content
+    problems = dict(verify(tmp_path / "a"))
+    assert problems["jar/task_0000/environment"] is None
+    assert "SHA-256 differs from its name" in str(problems["jar/task_0000/language"])
     (tmp_path / "a" / "jar/task_0000/environment/state.npy").write_bytes(b"x")  # tampered
     assert "SHA-256 differs" in str(next(iter(verify(tmp_path / "a")))[1])
 
