@@ -63,6 +63,8 @@ class CabinetSkeleton(FamilySkeleton):
             Param("clear_region", tuple, "x0, x1, y0, y1 (m) where blockers are put down", -1.5, 1.5),
             Param("clear_spacing", float, "m between candidate spots for a blocker", 0.005, 0.2),
             Param("clear_clearance", float, "m between a put-down blocker and every other object", 0.0, 0.2),
+            Param("clear_arm_margin", float, "m a put-down blocker keeps from the arm's later drawer and pick "
+                  "motions", 0.0, 0.2),
             Param("put_drop", float, "m above its support an object is released", 0.0, 0.05),
             Param("rim_clear", float, "m the carried target's bottom clears the drawer's rim", 0.0, 0.2),
             Param("drawer_yaws_deg", tuple, "turns of the target about the vertical tried over the drawer",
@@ -298,9 +300,12 @@ class CabinetSkeleton(FamilySkeleton):
         upright = Pose(np.zeros(3), self._yaw_only(obj.quat))
         rng = ctx.variation.rng(f"spot/{role}")
         lift = ctx.commanded_tcp().pos[2]
+        later = self._later_arm_path(ctx, role)
         for i in range(len(spots)):
             xy = spots[(start + i) % len(spots)]
             at = Pose(np.array([xy[0], xy[1], TABLE_TOP_Z + float(ctx.param("put_drop"))]), upright.quat)
+            if not self._spot_leaves_clear(ctx, role, at, later):
+                continue
             down = at @ tcp_t_obj.inverse()
             above = Pose(np.array([down.pos[0], down.pos[1], max(lift, down.pos[2] + 0.04)]), down.quat)
             back = Pose(down.pos - down.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]), down.quat)
@@ -315,6 +320,74 @@ class CabinetSkeleton(FamilySkeleton):
             ctx.memo[key] = (above, down)
             return above, down
         raise AttemptFailed("target_fail", f"no free spot for {role} is reachable holding it")
+
+    def _later_arm_path(self, ctx: Context, role: str) -> np.ndarray:
+        """Arm configurations (N, 7) of what comes after ``role`` is put down, planned now as the executor
+        will plan them: the chosen handle grasp's approach, the pull to the stroke, the back-off (which is
+        also where the close starts; the push retraces the pull) and, unless the target is the one put down,
+        the target's pre-grasp and grasp. Objects are left out of the lines (only their relation to the spot
+        matters here); a part that does not solve now is left out (the executor then fails on it anyway)."""
+        planner, model, data = ctx.planner, ctx.scene.model, ctx.scene.data
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x5B07]))
+        loose = AllowedContacts(tuple((ROOT_BODY, o.name) for o in ctx.task.objects))
+        planner.sync(data)
+        grasp: Grasp = ctx.memo["handle"]
+        pose = Pose.from_matrix(grasp.world_matrix(model, data, CABINET))
+        back = pose.rotation()[:, 2] * float(ctx.variation["handle_standoff"])
+        pulled = Pose(pose.pos + ctx.object_pose(CABINET).rotation()[:, 0] * self.stroke(ctx), pose.quat)
+        path: list[np.ndarray] = []
+        try:
+            q = planner.ik(Pose(pose.pos - back, pose.quat), ctx.q_cmd, rng)
+            path.append(q[None])
+            for goal in (pose, pulled, Pose(pulled.pos - back, pulled.quat)):
+                line = planner.line(path[-1][-1], goal, rng, allowed=loose)
+                path.append(line.q)
+            if role != TARGET and "grasp" in ctx.memo:
+                grasp_tcp = Pose.from_matrix(ctx.object_pose(TARGET).matrix() @ ctx.memo["grasp"].matrix())
+                pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]),
+                           grasp_tcp.quat)
+                q = planner.ik(pre, path[-1][-1], rng)
+                path.append(planner.line(q, grasp_tcp, rng, allowed=loose).q)
+        except MotionFailure:
+            pass
+        return np.vstack(path) if path else np.zeros((0, 7))
+
+    def _spot_leaves_clear(self, ctx: Context, role: str, at: Pose, later: np.ndarray) -> bool:
+        """Whether ``role`` standing at ``at`` stays ``clear_arm_margin`` from the arm on the ``later`` path
+        and, if it is the target, one of its grasps is still reachable there with the drawer open."""
+        scene, planner = ctx.scene, ctx.planner
+        staged = ctx.memo.get("spot_data") or mujoco.MjData(scene.model)
+        ctx.memo["spot_data"] = staged
+        staged.qpos[:] = scene.data.qpos
+        adr = int(scene.model.jnt_qposadr[scene.model.body_jntadr[scene.object_body(role)]])
+        staged.qpos[adr:adr + 3], staged.qpos[adr + 3:adr + 7] = at.pos, at.quat
+        staged.qpos[scene.articulation_qpos_adr(CABINET)] = self.stroke(ctx)
+        planner.sync(staged)
+        try:
+            checker = planner.checker
+            checker.configure(AllowedContacts(), None, float(ctx.param("clear_arm_margin")))
+            for q in later:
+                if any(c.body2.split("/")[0] == role for c in checker.collisions(q)):
+                    return False
+            if role == TARGET:
+                return self._target_reachable_at(ctx, at)
+            return True
+        finally:
+            planner.sync(scene.data)
+
+    def _target_reachable_at(self, ctx: Context, at: Pose) -> bool:
+        """Whether the target's chosen grasp reaches it standing at ``at`` (pre-grasp and grasp
+        collision-free, in the planner's current state)."""
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x5B08]))
+        touch = AllowedContacts(((ROOT_BODY, TARGET),))
+        pose = at @ Pose.from_matrix(ctx.memo["grasp"].matrix())
+        pre = Pose(pose.pos - pose.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]), pose.quat)
+        try:
+            q = ctx.planner.ik(pre, ctx.q_cmd, rng, collision_free=True, allowed=touch)
+            ctx.planner.ik(pose, q, rng, collision_free=True, allowed=touch)
+        except MotionFailure:
+            return False
+        return True
 
     @staticmethod
     def _yaw_only(quat: np.ndarray) -> np.ndarray:

@@ -153,9 +153,11 @@ class IKSolver:
         q_seed = np.asarray(q_seed, dtype=np.float64)
         best: IKResult | None = None
         vetoes: list[str] = []
-        for k in range(c.restarts + 1):
+        for k in range(c.restarts + 2):
             seed = q_seed
-            if k > 0:
+            if k > c.restarts:  # last: from the home posture (a seed far from the start can strand the solver)
+                seed = HOME_Q
+            elif k > 0:
                 seed = q_seed + rng.normal(0.0, c.restart_sigma * k / c.restarts, size=7)
             result = self.attempt(target, seed, posture)
             if result.converged(c):
@@ -165,7 +167,7 @@ class IKSolver:
                 vetoes.append(veto)
             elif best is None or result.score < best.score:
                 best = result
-        attempts = c.restarts + 1
+        attempts = c.restarts + 2
         if vetoes:
             reason = f"{len(vetoes)} of {attempts} attempts converged but were rejected: {vetoes[0]}"
         else:
