@@ -100,8 +100,8 @@ class CabinetSkeleton(FamilySkeleton):
         t, p = carry.tag, ctx.params
         return [
             *carry.pick_segments(ctx),
-            s.free(f"{t}carry", f"{t}over_spot", gripper="close", attached=role,
-                   speed=float(p["carry_speed"])),
+            s.linear(f"{t}carry", f"{t}over_spot", orientation="slerp", gripper="close", attached=role,
+                     speed=float(p["carry_speed"])),
             *carry.place_segments(f"{t}spot", retreat_steps=int(p["open_steps"])),
         ]
 
@@ -309,9 +309,9 @@ class CabinetSkeleton(FamilySkeleton):
             down = at @ tcp_t_obj.inverse()
             above = Pose(np.array([down.pos[0], down.pos[1], max(lift, down.pos[2] + 0.04)]), down.quat)
             back = Pose(down.pos - down.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]), down.quat)
-            try:  # the put-down and the retreat lines, as the executor plans them
-                q_above = ctx.planner.ik(above, ctx.q_cmd, rng, collision_free=True, attached=held)
-                put = ctx.planner.line(q_above, down, rng, allowed=AllowedContacts(((role, "table"),)),
+            try:  # the carry, put-down and retreat lines, as the executor plans them
+                carry = ctx.planner.line(ctx.q_cmd, above, rng, orientation="slerp", attached=held)
+                put = ctx.planner.line(carry.q[-1], down, rng, allowed=AllowedContacts(((role, "table"),)),
                                        attached=held)
                 # (the planner's copy of the object is still in the hand, not on the spot: leave it out)
                 ctx.planner.line(put.q[-1], back, rng, allowed=AllowedContacts(((ROOT_BODY, role),)))
