@@ -5,8 +5,9 @@ The paper's "four-phase articulated sequence (relocate → open → place → cl
 1. **Relocate.** An object (obstacle first, then target) whose footprint comes within ``sweep_margin`` of the
    volume the drawer and its handle sweep when opened to this attempt's stroke is in the way: the obstacle
    (a bottle, taller than the drawer's underside) would be knocked over, and the target would end up under
-   the open drawer, out of the gripper's reach. It is picked (Layer 2's pick-and-carry), put down upright on
-   a free spot of ``clear_region`` outside the sweep and away from everything else, and released.
+   the open drawer, out of the gripper's reach. It is picked (Layer 2's pick-and-carry), carried in a
+   straight line and put down upright on a free spot of ``clear_region`` outside the sweep, away from
+   everything else and ``clear_arm_margin`` from the arm's later drawer and pick motions, and released.
 2. **Open.** A drawer-handle grasp from the grasp DB (in the drawer's frame, ``Grasp.world_matrix``):
    pre-grasp, approach, close on the bar, pull along the slide axis to ``stroke`` × the travel (slowed to
    ``pull_speed``), release, back off.
@@ -63,8 +64,8 @@ class CabinetSkeleton(FamilySkeleton):
             Param("clear_region", tuple, "x0, x1, y0, y1 (m) where blockers are put down", -1.5, 1.5),
             Param("clear_spacing", float, "m between candidate spots for a blocker", 0.005, 0.2),
             Param("clear_clearance", float, "m between a put-down blocker and every other object", 0.0, 0.2),
-            Param("clear_arm_margin", float, "m a put-down blocker keeps from the arm's later drawer and pick "
-                  "motions", 0.0, 0.2),
+            Param("clear_arm_margin", float,
+                  "m a put-down blocker keeps from the arm's later drawer and pick motions", 0.0, 0.2),
             Param("put_drop", float, "m above its support an object is released", 0.0, 0.05),
             Param("rim_clear", float, "m the carried target's bottom clears the drawer's rim", 0.0, 0.2),
             Param("drawer_yaws_deg", tuple, "turns of the target about the vertical tried over the drawer",
@@ -344,8 +345,8 @@ class CabinetSkeleton(FamilySkeleton):
                 path.append(line.q)
             if role != TARGET and "grasp" in ctx.memo:
                 grasp_tcp = Pose.from_matrix(ctx.object_pose(TARGET).matrix() @ ctx.memo["grasp"].matrix())
-                pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]),
-                           grasp_tcp.quat)
+                standoff = float(ctx.variation["grasp_standoff"])
+                pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * standoff, grasp_tcp.quat)
                 q = planner.ik(pre, path[-1][-1], rng)
                 path.append(planner.line(q, grasp_tcp, rng, allowed=loose).q)
         except MotionFailure:

@@ -155,7 +155,7 @@ class IKSolver:
         vetoes: list[str] = []
         for k in range(c.restarts + 2):
             seed = q_seed
-            if k > c.restarts:  # last: from the home posture (a seed far from the start can strand the solver)
+            if k > c.restarts:  # last, from home: a seed far from the start can strand the solver
                 seed = HOME_Q
             elif k > 0:
                 seed = q_seed + rng.normal(0.0, c.restart_sigma * k / c.restarts, size=7)
