@@ -24,6 +24,7 @@ The drawer keeps the asset's joint parameters (damping, friction) for the whole 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -415,24 +416,27 @@ class CabinetSkeleton(FamilySkeleton):
         rng = ctx.variation.rng("drawer")
         margin = float(ctx.param("put_drop"))
         why = f"the opening is {(hi_x - lo_x) * 100:.1f} cm"
-        for yaw in ctx.param("drawer_yaws_deg"):
+        for outward, yaw in itertools.product((False, True), ctx.param("drawer_yaws_deg")):
             half = math.radians(float(yaw)) / 2.0
             turned = (Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)]) @ base).quat
             r_local = rot.T @ Pose(np.zeros(3), turned).rotation()  # object axes in the cabinet frame
             half_x = float(np.abs(r_local[0, :2]) @ (size[:2] / 2))
             half_y = float(np.abs(r_local[1, :2]) @ (size[:2] / 2))
-            if hi_x - lo_x < 2 * (half_x + margin):
+            slack = 0.5 * (hi_x - lo_x) - half_x - margin
+            if slack < 0.0 or (outward and slack < 0.005):
                 continue
-            cx = 0.5 * (lo_x + hi_x) + q  # cabinet frame
+            # the middle of the opening, else its outer end (the wrist then keeps farther from the carcass)
+            cx = 0.5 * (lo_x + hi_x) + (slack if outward else 0.0) + q  # cabinet frame
             cy = float(np.clip(ctx.variation["drawer_dx"], -hyi + half_y + margin, hyi - half_y - margin))
             centre = cab.pos + rot @ np.array([cx, cy, 0.0])
             low = Pose(np.array([centre[0], centre[1], cab.pos[2] + floor + margin]), turned)
             high = Pose(low.pos + np.array([0.0, 0.0, rim + float(ctx.param("rim_clear")) - floor - margin]),
                         turned)
             down, above = low @ tcp_t_obj.inverse(), high @ tcp_t_obj.inverse()
-            try:
-                for pose in (down, above):
-                    ctx.planner.ik(pose, ctx.q_cmd, rng, collision_free=True, attached=held)
+            try:  # over the opening, and the line down into the drawer as the executor plans it
+                q_above = ctx.planner.ik(above, ctx.q_cmd, rng, collision_free=True, attached=held)
+                ctx.planner.line(q_above, down, rng, allowed=AllowedContacts(((TARGET, CABINET),)),
+                                 attached=held)
             except MotionFailure as fail:
                 why = fail.reason
                 continue
