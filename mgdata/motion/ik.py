@@ -2,8 +2,9 @@
 
 The solver works on a 7-joint model of the bare arm (no geoms, no fingers, no scene objects), so each QP has
 seven unknowns whatever the scene holds; targets given in the world are moved into the robot base frame
-first. mink is a local solver: an attempt starts at ``q_seed`` and later attempts start from seeds perturbed
-by growing Gaussian noise drawn from the caller's ``rng`` (so results are reproducible per seed).
+first. mink is a local solver: an attempt starts at ``q_seed``, later attempts start from seeds perturbed
+by growing Gaussian noise drawn from the caller's ``rng`` (so results are reproducible per seed), and the last
+one from ``HOME_Q`` (an arm left twisted by an earlier motion can strand every perturbed seed).
 
 Example::
 
