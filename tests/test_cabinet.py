@@ -168,8 +168,10 @@ class _GapProbe(_Probe):
     def step(self) -> None:
         super().step()
         m, d = self.scene.model, self.scene.data
-        self.gap.append(min(mujoco.mj_geomDistance(m, d, a, b, 0.1, None)
-                            for a in self.robot_c for b in self.mine_c))
+        reach = m.geom_rbound
+        near = [(a, b) for a in self.robot_c for b in self.mine_c  # bounding spheres within 10 cm
+                if np.linalg.norm(d.geom_xpos[a] - d.geom_xpos[b]) < reach[a] + reach[b] + 0.1]
+        self.gap.append(min((mujoco.mj_geomDistance(m, d, a, b, 0.1, None) for a, b in near), default=0.1))
 
 
 def test_a_relocated_bottle_stands_clear_of_the_arm_while_the_drawer_moves(grasps: GraspDB) -> None:
@@ -193,7 +195,7 @@ def test_a_relocated_bottle_is_carried_upright(grasps: GraspDB) -> None:
     (unsafe at step 160); the straight carry keeps it upright (raw tilt from ``xmat``)."""
     recipe = load_family_recipe("cabinet")
     task = base_task(recipe, 12)
-    result, _, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _GapProbe, draw=1)
+    result, _, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _Probe, draw=1)
     assert result.kept, (result.stage, result.segment, result.reason)
     assert any(probe.robot_touch) and max(probe.tilt) < 10.0, max(probe.tilt)
     assert result.t_violation["obstacle_stays_upright"] is None
