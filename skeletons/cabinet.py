@@ -5,8 +5,9 @@ The paper's "four-phase articulated sequence (relocate → open → place → cl
 1. **Relocate.** An object (obstacle first, then target) whose footprint comes within ``sweep_margin`` of the
    volume the drawer and its handle sweep when opened to this attempt's stroke is in the way: the obstacle
    (a bottle, taller than the drawer's underside) would be knocked over, and the target would end up under
-   the open drawer, out of the gripper's reach. It is picked (Layer 2's pick-and-carry), put down upright on
-   a free spot of ``clear_region`` outside the sweep and away from everything else, and released.
+   the open drawer, out of the gripper's reach. It is picked (Layer 2's pick-and-carry), carried in a
+   straight line and put down upright on a free spot of ``clear_region`` outside the sweep, away from
+   everything else and ``clear_arm_margin`` from the arm's later drawer and pick motions, and released.
 2. **Open.** A drawer-handle grasp from the grasp DB (in the drawer's frame, ``Grasp.world_matrix``):
    pre-grasp, approach, close on the bar, pull along the slide axis to ``stroke`` × the travel (slowed to
    ``pull_speed``), release, back off.
@@ -23,6 +24,7 @@ The drawer keeps the asset's joint parameters (damping, friction) for the whole 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -63,6 +65,8 @@ class CabinetSkeleton(FamilySkeleton):
             Param("clear_region", tuple, "x0, x1, y0, y1 (m) where blockers are put down", -1.5, 1.5),
             Param("clear_spacing", float, "m between candidate spots for a blocker", 0.005, 0.2),
             Param("clear_clearance", float, "m between a put-down blocker and every other object", 0.0, 0.2),
+            Param("clear_arm_margin", float,
+                  "m a put-down blocker keeps from the arm's later drawer and pick motions", 0.0, 0.2),
             Param("put_drop", float, "m above its support an object is released", 0.0, 0.05),
             Param("rim_clear", float, "m the carried target's bottom clears the drawer's rim", 0.0, 0.2),
             Param("drawer_yaws_deg", tuple, "turns of the target about the vertical tried over the drawer",
@@ -98,8 +102,8 @@ class CabinetSkeleton(FamilySkeleton):
         t, p = carry.tag, ctx.params
         return [
             *carry.pick_segments(ctx),
-            s.free(f"{t}carry", f"{t}over_spot", gripper="close", attached=role,
-                   speed=float(p["carry_speed"])),
+            s.linear(f"{t}carry", f"{t}over_spot", orientation="slerp", gripper="close", attached=role,
+                     speed=float(p["carry_speed"])),
             *carry.place_segments(f"{t}spot", retreat_steps=int(p["open_steps"])),
         ]
 
@@ -298,15 +302,18 @@ class CabinetSkeleton(FamilySkeleton):
         upright = Pose(np.zeros(3), self._yaw_only(obj.quat))
         rng = ctx.variation.rng(f"spot/{role}")
         lift = ctx.commanded_tcp().pos[2]
+        later = self._later_arm_path(ctx, role)
         for i in range(len(spots)):
             xy = spots[(start + i) % len(spots)]
             at = Pose(np.array([xy[0], xy[1], TABLE_TOP_Z + float(ctx.param("put_drop"))]), upright.quat)
+            if not self._spot_leaves_clear(ctx, role, at, later):
+                continue
             down = at @ tcp_t_obj.inverse()
             above = Pose(np.array([down.pos[0], down.pos[1], max(lift, down.pos[2] + 0.04)]), down.quat)
             back = Pose(down.pos - down.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]), down.quat)
-            try:  # the put-down and the retreat lines, as the executor plans them
-                q_above = ctx.planner.ik(above, ctx.q_cmd, rng, collision_free=True, attached=held)
-                put = ctx.planner.line(q_above, down, rng, allowed=AllowedContacts(((role, "table"),)),
+            try:  # the carry, put-down and retreat lines, as the executor plans them
+                carry = ctx.planner.line(ctx.q_cmd, above, rng, orientation="slerp", attached=held)
+                put = ctx.planner.line(carry.q[-1], down, rng, allowed=AllowedContacts(((role, "table"),)),
                                        attached=held)
                 # (the planner's copy of the object is still in the hand, not on the spot: leave it out)
                 ctx.planner.line(put.q[-1], back, rng, allowed=AllowedContacts(((ROOT_BODY, role),)))
@@ -315,6 +322,74 @@ class CabinetSkeleton(FamilySkeleton):
             ctx.memo[key] = (above, down)
             return above, down
         raise AttemptFailed("target_fail", f"no free spot for {role} is reachable holding it")
+
+    def _later_arm_path(self, ctx: Context, role: str) -> np.ndarray:
+        """Arm configurations (N, 7) of what comes after ``role`` is put down, planned now as the executor
+        will plan them: the chosen handle grasp's approach, the pull to the stroke, the back-off (which is
+        also where the close starts; the push retraces the pull) and, unless the target is the one put down,
+        the target's pre-grasp and grasp. Objects are left out of the lines (only their relation to the spot
+        matters here); a part that does not solve now is left out (the executor then fails on it anyway)."""
+        planner, model, data = ctx.planner, ctx.scene.model, ctx.scene.data
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x5B07]))
+        loose = AllowedContacts(tuple((ROOT_BODY, o.name) for o in ctx.task.objects))
+        planner.sync(data)
+        grasp: Grasp = ctx.memo["handle"]
+        pose = Pose.from_matrix(grasp.world_matrix(model, data, CABINET))
+        back = pose.rotation()[:, 2] * float(ctx.variation["handle_standoff"])
+        pulled = Pose(pose.pos + ctx.object_pose(CABINET).rotation()[:, 0] * self.stroke(ctx), pose.quat)
+        path: list[np.ndarray] = []
+        try:
+            q = planner.ik(Pose(pose.pos - back, pose.quat), ctx.q_cmd, rng)
+            path.append(q[None])
+            for goal in (pose, pulled, Pose(pulled.pos - back, pulled.quat)):
+                line = planner.line(path[-1][-1], goal, rng, allowed=loose)
+                path.append(line.q)
+            if role != TARGET and "grasp" in ctx.memo:
+                grasp_tcp = Pose.from_matrix(ctx.object_pose(TARGET).matrix() @ ctx.memo["grasp"].matrix())
+                standoff = float(ctx.variation["grasp_standoff"])
+                pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * standoff, grasp_tcp.quat)
+                q = planner.ik(pre, path[-1][-1], rng)
+                path.append(planner.line(q, grasp_tcp, rng, allowed=loose).q)
+        except MotionFailure:
+            pass
+        return np.vstack(path) if path else np.zeros((0, 7))
+
+    def _spot_leaves_clear(self, ctx: Context, role: str, at: Pose, later: np.ndarray) -> bool:
+        """Whether ``role`` standing at ``at`` stays ``clear_arm_margin`` from the arm on the ``later`` path
+        and, if it is the target, one of its grasps is still reachable there with the drawer open."""
+        scene, planner = ctx.scene, ctx.planner
+        staged = ctx.memo.get("spot_data") or mujoco.MjData(scene.model)
+        ctx.memo["spot_data"] = staged
+        staged.qpos[:] = scene.data.qpos
+        adr = int(scene.model.jnt_qposadr[scene.model.body_jntadr[scene.object_body(role)]])
+        staged.qpos[adr:adr + 3], staged.qpos[adr + 3:adr + 7] = at.pos, at.quat
+        staged.qpos[scene.articulation_qpos_adr(CABINET)] = self.stroke(ctx)
+        planner.sync(staged)
+        try:
+            checker = planner.checker
+            checker.configure(AllowedContacts(), None, float(ctx.param("clear_arm_margin")))
+            for q in later:
+                if any(c.body2.split("/")[0] == role for c in checker.collisions(q)):
+                    return False
+            if role == TARGET:
+                return self._target_reachable_at(ctx, at)
+            return True
+        finally:
+            planner.sync(scene.data)
+
+    def _target_reachable_at(self, ctx: Context, at: Pose) -> bool:
+        """Whether the target's chosen grasp reaches it standing at ``at`` (pre-grasp and grasp
+        collision-free, in the planner's current state)."""
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x5B08]))
+        touch = AllowedContacts(((ROOT_BODY, TARGET),))
+        pose = at @ Pose.from_matrix(ctx.memo["grasp"].matrix())
+        pre = Pose(pose.pos - pose.rotation()[:, 2] * float(ctx.variation["grasp_standoff"]), pose.quat)
+        try:
+            q = ctx.planner.ik(pre, ctx.q_cmd, rng, collision_free=True, allowed=touch)
+            ctx.planner.ik(pose, q, rng, collision_free=True, allowed=touch)
+        except MotionFailure:
+            return False
+        return True
 
     @staticmethod
     def _yaw_only(quat: np.ndarray) -> np.ndarray:
@@ -341,24 +416,27 @@ class CabinetSkeleton(FamilySkeleton):
         rng = ctx.variation.rng("drawer")
         margin = float(ctx.param("put_drop"))
         why = f"the opening is {(hi_x - lo_x) * 100:.1f} cm"
-        for yaw in ctx.param("drawer_yaws_deg"):
+        for outward, yaw in itertools.product((False, True), ctx.param("drawer_yaws_deg")):
             half = math.radians(float(yaw)) / 2.0
             turned = (Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)]) @ base).quat
             r_local = rot.T @ Pose(np.zeros(3), turned).rotation()  # object axes in the cabinet frame
             half_x = float(np.abs(r_local[0, :2]) @ (size[:2] / 2))
             half_y = float(np.abs(r_local[1, :2]) @ (size[:2] / 2))
-            if hi_x - lo_x < 2 * (half_x + margin):
+            slack = 0.5 * (hi_x - lo_x) - half_x - margin
+            if slack < 0.0 or (outward and slack < 0.005):
                 continue
-            cx = 0.5 * (lo_x + hi_x) + q  # cabinet frame
+            # the middle of the opening, else its outer end (the wrist then keeps farther from the carcass)
+            cx = 0.5 * (lo_x + hi_x) + (slack if outward else 0.0) + q  # cabinet frame
             cy = float(np.clip(ctx.variation["drawer_dx"], -hyi + half_y + margin, hyi - half_y - margin))
             centre = cab.pos + rot @ np.array([cx, cy, 0.0])
             low = Pose(np.array([centre[0], centre[1], cab.pos[2] + floor + margin]), turned)
             high = Pose(low.pos + np.array([0.0, 0.0, rim + float(ctx.param("rim_clear")) - floor - margin]),
                         turned)
             down, above = low @ tcp_t_obj.inverse(), high @ tcp_t_obj.inverse()
-            try:
-                for pose in (down, above):
-                    ctx.planner.ik(pose, ctx.q_cmd, rng, collision_free=True, attached=held)
+            try:  # over the opening, and the line down into the drawer as the executor plans it
+                q_above = ctx.planner.ik(above, ctx.q_cmd, rng, collision_free=True, attached=held)
+                ctx.planner.line(q_above, down, rng, allowed=AllowedContacts(((TARGET, CABINET),)),
+                                 attached=held)
             except MotionFailure as fail:
                 why = fail.reason
                 continue

@@ -18,15 +18,15 @@ P = TypeVar("P")
 
 
 def probed_attempt(task: Any, recipe: Any, grasps: GraspDB, skeleton: Any,
-                   probe: Callable[[Scene], P]) -> tuple[Any, Any, Any, P]:
-    """Draw 0 of ``task`` played by ``skeleton`` with ``probe(scene)`` as the controller: (result, frames,
-    episode meta, probe)."""
+                   probe: Callable[[Scene], P], draw: int = 0) -> tuple[Any, Any, Any, P]:
+    """Attempt ``draw`` of ``task`` played by ``skeleton`` with ``probe(scene)`` as the controller: (result,
+    frames, episode meta, probe)."""
     ex = Executor(task, recipe, grasps=grasps, render=False)
     ex.skeleton = skeleton
     ex.controller = probed = probe(ex.scene)
     sink = MemorySink()
     try:
-        result = ex.run(0, sink, keep_failed=True)
+        result = ex.run(draw, sink, keep_failed=True)
     finally:
         ex.close()
     frames, meta = sink.episodes[0]

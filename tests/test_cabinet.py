@@ -153,6 +153,54 @@ def test_opening_the_drawer_into_the_bottle_is_unsafe_at_the_tipping_step(grasps
     assert all(v is None for k, v in result.t_violation.items() if k != "obstacle_stays_upright")
 
 
+class _GapProbe(_Probe):
+    """:class:`_Probe` plus, after every control step, the smallest distance (m, ``mj_geomDistance``, capped
+    at 10 cm) between the robot's colliding geoms and the obstacle's."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        m = scene.model
+        colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+        self.robot_c = [g for g in sorted(self.robot) if colliding[g]]
+        self.mine_c = [g for g in sorted(self.mine) if colliding[g]]
+        self.gap: list[float] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        reach = m.geom_rbound
+        near = [(a, b) for a in self.robot_c for b in self.mine_c  # bounding spheres within 10 cm
+                if np.linalg.norm(d.geom_xpos[a] - d.geom_xpos[b]) < reach[a] + reach[b] + 0.1]
+        self.gap.append(min((mujoco.mj_geomDistance(m, d, a, b, 0.1, None) for a, b in near), default=0.1))
+
+
+def test_a_relocated_bottle_stands_clear_of_the_arm_while_the_drawer_moves(grasps: GraspDB) -> None:
+    """Task 7, draw 0: the bottle stands in the drawer's way and is put down elsewhere. Before the put-down
+    spot kept clear of the arm's later motions, the wrist hit it while pulling the drawer open
+    (``plan_fail``, link6 <-> obstacle); now, measured from raw MuJoCo: once released the robot stays clear of
+    it, the drawer never touches it, and it never tilts."""
+    recipe = load_family_recipe("cabinet")
+    task = base_task(recipe, 7)
+    result, frames, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _GapProbe)
+    assert result.kept, (result.stage, result.segment, result.reason)
+    released = max(t for t, touch in enumerate(probe.robot_touch) if touch)  # the relocation's release
+    assert released < len(frames) // 3  # ... early in the episode: the relocation comes first
+    assert min(probe.gap[released + 20:]) > 0.0, min(probe.gap[released + 20:])  # measured: 6.7 mm
+    assert not any(probe.drawer_touch) and max(probe.q) > 0.2  # the drawer opened past it, untouched
+    assert max(probe.tilt) < 5.0
+
+
+def test_a_relocated_bottle_is_carried_upright(grasps: GraspDB) -> None:
+    """Task 12, draw 1: a free joint-space carry to the put-down spot tipped the side-grasped bottle past 45°
+    (unsafe at step 160); the straight carry keeps it upright (raw tilt from ``xmat``)."""
+    recipe = load_family_recipe("cabinet")
+    task = base_task(recipe, 12)
+    result, _, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _Probe, draw=1)
+    assert result.kept, (result.stage, result.segment, result.reason)
+    assert any(probe.robot_touch) and max(probe.tilt) < 10.0, max(probe.tilt)
+    assert result.t_violation["obstacle_stays_upright"] is None
+
+
 @pytest.mark.slow  # the family contract test (tests/test_families.py) replays a kept demo the same way
 def test_a_demonstration_leaves_the_target_in_the_closed_drawer_at_rest(grasps: GraspDB) -> None:
     recipe = load_family_recipe("cabinet")

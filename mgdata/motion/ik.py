@@ -2,8 +2,9 @@
 
 The solver works on a 7-joint model of the bare arm (no geoms, no fingers, no scene objects), so each QP has
 seven unknowns whatever the scene holds; targets given in the world are moved into the robot base frame
-first. mink is a local solver: an attempt starts at ``q_seed`` and later attempts start from seeds perturbed
-by growing Gaussian noise drawn from the caller's ``rng`` (so results are reproducible per seed).
+first. mink is a local solver: an attempt starts at ``q_seed``, later attempts start from seeds perturbed
+by growing Gaussian noise drawn from the caller's ``rng`` (so results are reproducible per seed), and the last
+one from ``HOME_Q`` (an arm left twisted by an earlier motion can strand every perturbed seed).
 
 Example::
 
@@ -153,9 +154,11 @@ class IKSolver:
         q_seed = np.asarray(q_seed, dtype=np.float64)
         best: IKResult | None = None
         vetoes: list[str] = []
-        for k in range(c.restarts + 1):
+        for k in range(c.restarts + 2):
             seed = q_seed
-            if k > 0:
+            if k > c.restarts:  # last, from home: a seed far from the start can strand the solver
+                seed = HOME_Q
+            elif k > 0:
                 seed = q_seed + rng.normal(0.0, c.restart_sigma * k / c.restarts, size=7)
             result = self.attempt(target, seed, posture)
             if result.converged(c):
@@ -165,7 +168,7 @@ class IKSolver:
                 vetoes.append(veto)
             elif best is None or result.score < best.score:
                 best = result
-        attempts = c.restarts + 1
+        attempts = c.restarts + 2
         if vetoes:
             reason = f"{len(vetoes)} of {attempts} attempts converged but were rejected: {vetoes[0]}"
         else:

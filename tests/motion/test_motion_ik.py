@@ -78,3 +78,20 @@ def test_ik_is_deterministic_for_a_seed(planner: MotionPlanner) -> None:
     a = planner.ik(target, far_seed, np.random.default_rng(5))
     b = planner.ik(target, far_seed, np.random.default_rng(5))
     assert a.tobytes() == b.tobytes()
+
+
+def test_ik_falls_back_to_a_home_seed_when_the_seed_strands_the_solver() -> None:
+    """A seed far from the solution (the arm left in a twisted pose by an earlier segment) can strand the
+    local solver in every restart; the last attempt starts from the home posture."""
+    from mgdata.motion.config import IKConfig
+    from mgdata.motion.ik import IKSolver
+
+    config = IKConfig(restarts=0)
+    solver = IKSolver(Pose(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])), config)
+    target = solver.fk(np.array([0.038, -0.825, 0.192, -2.325, -0.161, 1.679, 1.177]))
+    seed = np.array([1.33, 0.154, 2.521, -0.623, -2.877, 3.215, -2.703])
+    assert not solver.attempt(target, seed).converged(config)  # the seed alone strands it
+    q = solver.solve(target, seed, np.random.default_rng(0))
+    data_pose = solver.fk(q)
+    assert np.linalg.norm(data_pose.pos - target.pos) <= config.pos_tol
+    assert data_pose.angle_to(target) <= config.rot_tol
