@@ -350,7 +350,7 @@ class CabinetSkeleton(FamilySkeleton):
                 pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * standoff, grasp_tcp.quat)
                 q = planner.ik(pre, path[-1][-1], rng)
                 path.append(planner.line(q, grasp_tcp, rng, allowed=loose).q)
-        except MotionFailure:
+        except MotionFailure:  # the rest is left out: the executor fails on that part anyway
             pass
         return np.vstack(path) if path else np.zeros((0, 7))
 

@@ -89,16 +89,16 @@ class _Trace:
         self.frames: list[Frame] = []
 
     def set_scene(self, mjb: bytes) -> None:
-        pass
+        """The scene is the scenario's own stored model: nothing to keep."""
 
     def add_frame(self, frame: Frame) -> None:
         self.frames.append(frame)
 
     def end_episode(self, meta: Any) -> None:
-        pass
+        """A rollout's record is written by the loop, not by the sink: nothing to do."""
 
     def discard_episode(self) -> None:
-        pass
+        """The frames stay until the rollout's video (if any) is written: nothing to drop."""
 
 
 @dataclass(frozen=True)

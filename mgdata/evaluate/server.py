@@ -17,6 +17,7 @@ Example::
 from __future__ import annotations
 
 import http
+import sys
 import time
 import traceback
 from typing import Any, Protocol
@@ -77,7 +78,9 @@ class PolicyServer:
                 ws.send(packb(action))
             except ConnectionClosed:
                 return
-            except Exception:
+            except Exception:  # openpi's protocol: any policy error goes to the client as a text frame
+                # (the client prints it as one error line and stops the run), then the connection closes
+                traceback.print_exc(file=sys.stderr)
                 ws.send(traceback.format_exc())
                 ws.close(code=CloseCode.INTERNAL_ERROR,
                          reason="Internal server error. Traceback included in previous frame.")

@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -112,3 +113,13 @@ def served_session(cal: GelloCalibration, tmp_path: Path,
             reader.close()
             bus.close()
     assert not errors, errors
+
+
+def open_operator_page(pw: Any, url: str) -> tuple[Any, Any]:
+    """(browser, page): headless Chromium on the operator page at ``url``, once its monitor stream is open."""
+    browser = pw.chromium.launch(executable_path=chromium(), headless=True,
+                                 args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    page.goto(url)
+    page.wait_for_selector("#mg-monitor[data-step='0']", timeout=240_000)  # the stream is open
+    return browser, page

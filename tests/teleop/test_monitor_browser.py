@@ -18,7 +18,7 @@ from mgdata.record.physics import model_from_bytes, set_physics_state
 from mgdata.record.reader import DatasetReader
 from teleop.gello import GelloCalibration
 from teleop.session import TeleopSession
-from tests.teleop.browser import chromium, served_session, wait
+from tests.teleop.browser import open_operator_page, served_session, wait
 
 pytest.importorskip("playwright", reason="playwright is part of the dev setup")
 
@@ -84,11 +84,7 @@ def test_page_shows_the_recorded_monitor_state(gello_cal: GelloCalibration, tmp_
     with served_session(gello_cal, tmp_path, on_step=_tip_jar) as served:
         session = served.session
         with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=chromium(), headless=True,
-                                         args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(served.view.url)
-            page.wait_for_selector("#mg-monitor[data-step='0']", timeout=240_000)  # the stream is open
+            browser, page = open_operator_page(pw, served.view.url)
             page.evaluate(SHOWN)
             page.get_by_role("button", name="Record").click()
             wait(lambda: session.status.failed == 1, "the tipped episode to end")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from teleop.gello import GelloCalibration
-from tests.teleop.browser import chromium, served_session, wait
+from tests.teleop.browser import open_operator_page, served_session, wait
 
 pytest.importorskip("playwright", reason="playwright is part of the dev setup")
 
@@ -21,11 +21,7 @@ def test_browser_hotkeys_drive_the_session(gello_cal: GelloCalibration, tmp_path
     with served_session(gello_cal, tmp_path) as served:
         session = served.session
         with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=chromium(), headless=True,
-                                         args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(served.view.url)
-            page.wait_for_selector("#mg-monitor[data-step='0']", timeout=240_000)  # the stream is open
+            browser, page = open_operator_page(pw, served.view.url)
             page.locator("body").click(position={"x": 5, "y": 5})  # focus the page, not a widget
 
             def mode() -> str:
