@@ -16,7 +16,7 @@ TELEOP_TOML = "teleop.toml"
 @dataclass(frozen=True)
 class LeaderConfig:
     baudrate: int = 1_000_000
-    reader_hz: float = 120.0
+    reader_hz: float = 160.0
     stale_s: float = 0.25
     gripper_threshold: float = 0.5
     max_joint_step: float = 0.15
@@ -63,9 +63,9 @@ class LoopConfig:
     realtime_priority: int = 0
 
     def __post_init__(self) -> None:
-        if self.realtime_priority != 0 and not 2 <= self.realtime_priority <= 99:
+        if self.realtime_priority != 0 and not 2 <= self.realtime_priority <= 98:
             raise RecipeError(f"[loop] realtime_priority = {self.realtime_priority}: must be 0 (off) "
-                              "or 2 … 99")
+                              "or 2 … 98")
 
 
 @dataclass(frozen=True)
