@@ -213,24 +213,34 @@ class CabinetSkeleton(FamilySkeleton):
         return super().resolve(name, ctx)
 
     # -- the handle ------------------------------------------------------------------------------------------
+    def moved_first(self, ctx: Context) -> AllowedContacts:
+        """The blockers :meth:`in_the_way` as robot contacts to allow in checks of what comes after their
+        relocation (the handle's motions, the target's pick from the open drawer's side): by then they stand
+        on spots kept ``clear_arm_margin`` from those motions. The cabinet, the table and every object left
+        where it is still count."""
+        return AllowedContacts(tuple((ROOT_BODY, r) for r in self.in_the_way(ctx)))
+
     def handle_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
-        """The cabinet's valid handle grasps with a collision-free pre-grasp, whose straight approach and
-        pull lines (planned as the executor will: the hand may touch the cabinet, nothing else may) solve,
-        every configuration ``grasp_margin`` from the joint limits."""
+        """The cabinet's valid handle grasps with a collision-free pre-grasp ``grasp_margin`` from the joint
+        limits, whose straight approach and pull lines (planned as the executor will: the hand may touch the
+        cabinet, nothing else may but the blockers relocated first) solve, every configuration
+        ``grasp_margin`` from the joint limits."""
         stroke = self.stroke(ctx)
         planner, data, model = ctx.planner, ctx.scene.data, ctx.scene.model
         margin = float(ctx.param("grasp_margin"))
         axis = ctx.object_pose(CABINET).rotation()[:, 0]
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0xCAB]))
-        touch = AllowedContacts(TOUCH_CABINET)
+        moved = self.moved_first(ctx)
+        touch = AllowedContacts(TOUCH_CABINET) + moved
         planner.sync(data)
         out = []
         for grasp in ctx.grasps.get(CABINET, ()):
             pose = Pose.from_matrix(grasp.world_matrix(model, data, CABINET))
             pre = Pose(pose.pos - pose.rotation()[:, 2] * float(ctx.variation["handle_standoff"]), pose.quat)
             pulled = Pose(pose.pos + axis * stroke, pose.quat)
-            try:
-                q_pre = planner.ik(pre, ctx.q_cmd, rng, collision_free=True)
+            try:  # a pre-grasp solution near a joint limit is no reason to drop the grasp: take another
+                q_pre = planner.ik(pre, ctx.q_cmd, rng, collision_free=True, allowed=moved,
+                                   limit_margin=margin)
                 approach = planner.line(q_pre, pose, rng, allowed=touch)
                 pull = planner.line(approach.q[-1], pulled, rng, allowed=touch)
             except MotionFailure:
@@ -448,15 +458,17 @@ class CabinetSkeleton(FamilySkeleton):
 
     # -- the initial-state gate ------------------------------------------------------------------------------
     def _reachable_open(self, ctx: Context) -> tuple[Grasp, ...]:
-        """The target's reachable grasps with the drawer opened to the stroke (as when it is picked)."""
+        """The target's reachable grasps with the drawer opened to the stroke (as when it is picked, after the
+        blockers were moved: the obstacle, if relocated, does not count)."""
         scene = ctx.scene
         adr = scene.articulation_qpos_adr(CABINET)
         closed = float(scene.data.qpos[adr])
+        moved = AllowedContacts(tuple(p for p in self.moved_first(ctx).pairs if p[1] != TARGET))
         scene.data.qpos[adr] = self.stroke(ctx)
         mujoco.mj_forward(scene.model, scene.data)
         try:
             ctx.planner.sync(scene.data)
-            return self.target.reachable_grasps(ctx)
+            return self.target.reachable_grasps(ctx, moved)
         finally:
             scene.data.qpos[adr] = closed
             mujoco.mj_forward(scene.model, scene.data)

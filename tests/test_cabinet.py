@@ -22,7 +22,8 @@ from probed import probed_attempt
 
 from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
-from mgdata.engine.init_gate import base_task
+from mgdata.engine.init_gate import base_task, check_initial_state
+from mgdata.engine.scenarios import variant
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
@@ -199,6 +200,55 @@ def test_a_relocated_bottle_is_carried_upright(grasps: GraspDB) -> None:
     assert result.kept, (result.stage, result.segment, result.reason)
     assert any(probe.robot_touch) and max(probe.tilt) < 10.0, max(probe.tilt)
     assert result.t_violation["obstacle_stays_upright"] is None
+
+
+def _bottle_on_the_handles_axis(task, out: float):  # type: ignore[no-untyped-def]
+    """``task`` with its bottle ``out`` m in front of the drawer's handle, on the handle's axis."""
+    cab = task.object("cabinet")
+    hx, hy, _ = get_model(cab.model).geometry["handle_pos"]
+    c, s = np.cos(cab.yaw), np.sin(cab.yaw)
+    x, y = hx + out, hy
+    pos = (cab.pos[0] + c * x - s * y, cab.pos[1] + s * x + c * y, task.object("obstacle").pos[2])
+    objects = tuple(dataclasses.replace(o, pos=pos) if o.name == "obstacle" else o for o in task.objects)
+    return dataclasses.replace(task, objects=objects)
+
+
+def test_a_bottle_in_front_of_the_handle_is_a_blocker_not_a_reason_to_reject(grasps: GraspDB) -> None:
+    """Task 1 with its bottle 10 cm in front of the handle, where the opening drawer would run into it (raw:
+    its origin inside the open drawer's geom box, its top above the drawer's bottom). The skeleton moves it
+    first, so the gate plans the handle's pre-grasp, approach and pull without it: the task passes and the
+    bottle is named in the way. Before, the gate planned those motions around the bottle and rejected the
+    task (``reach.handle``)."""
+    recipe = load_family_recipe("cabinet")
+    task = _bottle_on_the_handles_axis(base_task(recipe, 1), 0.10)
+    facts = check_initial_state(task, recipe, grasps)
+    assert "obstacle" in facts["in_the_way"] and facts["handle_grasps"] and facts["obstacle/grasps"]
+    scene = build_scene(task)
+    m, d = scene.model, scene.data
+    slide = m.joint("cabinet/drawer_slide")
+    d.qpos[m.jnt_qposadr[slide.id]] = recipe.variation["stroke"][0] * slide.range[1]  # the smallest stroke
+    mujoco.mj_forward(m, d)
+    drawer, bottle = m.body("cabinet/drawer").id, m.body("obstacle").id
+    lo, hi = rawdata.local_box(m, d, drawer)
+    at = (d.xpos[bottle] - d.xpos[drawer]) @ d.xmat[drawer].reshape(3, 3)
+    assert np.all(at[:2] > lo[:2]) and np.all(at[:2] < hi[:2]), (at, lo, hi)
+    top = d.xpos[bottle][2] + rawdata.local_box(m, d, bottle)[1][2]
+    assert top > d.xpos[drawer][2] + lo[2]
+
+
+def test_task_28_has_a_location_variant_that_passes_the_gate(grasps: GraspDB) -> None:
+    """Issue 12's full scenario build stopped at cabinet task 28: every location proposal failed
+    ``reach.handle``. The unit had moved away from the cabinet, so the nearest pre-grasp solution (which the
+    bottle had vetoed in the base task) was accepted and then rejected for lying 0.10 rad from joint 2's
+    limit, with a roomy solution available. Now the pre-grasp IK looks on for one keeping ``grasp_margin``:
+    the first proposal passes, with the base task's handle grasp."""
+    recipe = load_family_recipe("cabinet")
+    base = base_task(recipe, 28)
+    task, provenance, report = variant(recipe, base, "location", grasps)
+    assert report["passed"] and report["attempts"] == 1 and provenance["kind"] == "location"
+    assert task.gate["handle_grasps"] == base.gate["handle_grasps"]
+    moved = {o.name: np.subtract(o.pos, base.object(o.name).pos)[:2] for o in task.objects}
+    assert np.linalg.norm(moved["target"]) > 0.1 and np.allclose(moved["cabinet"], 0.0)
 
 
 @pytest.mark.slow  # the family contract test (tests/test_families.py) replays a kept demo the same way

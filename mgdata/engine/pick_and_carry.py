@@ -32,7 +32,7 @@ from mgdata.engine.context import Context
 from mgdata.engine.gate import AttemptFailed
 from mgdata.engine.init_gate import Infeasible
 from mgdata.grasps.db import Grasp
-from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, MotionFailure, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
@@ -190,18 +190,18 @@ class PickAndCarry:
             ctx.memo["grasp_id"] = grasp.id
         return grasp
 
-    def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
+    def reachable_grasps(self, ctx: Context, allowed: AllowedContacts = NO_CONTACTS) -> tuple[Grasp, ...]:
         """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses (raised by the draw's
         ``grasp_height``; the gate uses the midpoint) have IK solutions with
         ``grasp_margin`` from the joint limits and the arm ``grasp_clearance`` clear of everything but the
-        object and its riders (a wrist that grazes the table in the plan hits it once the servos sag).
-        From the state in ``ctx`` with a task-derived seed, so every worker agrees."""
+        object, its riders and the pairs in ``allowed`` (a wrist that grazes the table in the plan hits it
+        once the servos sag). From the state in ``ctx`` with a task-derived seed, so every worker agrees."""
         pose_obj = ctx.object_pose(self.obj).matrix()
         pose_obj[:3, 3] += pose_obj[:3, 2] * ctx.variation["grasp_height"]  # this draw's grasp height
         margin = float(ctx.param("grasp_margin"))
         planner = ctx.planner
-        planner.checker.configure(self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)), None,
-                                  float(ctx.param("grasp_clearance")))
+        touch = self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)) + allowed
+        planner.checker.configure(touch, None, float(ctx.param("grasp_clearance")))
         standoff = float(ctx.param("reach_standoff"))
         rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9A5]))
         out = []

@@ -79,21 +79,28 @@ class MotionPlanner:
         collision_free: bool = False,
         allowed: AllowedContacts = NO_CONTACTS,
         attached: Attachment | None = None,
+        limit_margin: float = 0.0,
     ) -> np.ndarray:
         """Arm configuration (7,) putting the TCP at ``target``, near ``q_seed``; raises ``ik_fail``.
 
         With ``collision_free`` a solution must also be free of (exact, unallowed) contacts in the synced
-        scene, or the next restart is tried.
+        scene, and with ``limit_margin`` (rad) keep that far from every joint limit, or the next restart is
+        tried.
         """
         q_seed = _q7(q_seed, "q_seed")
-        accept = None
         if collision_free:
             self.checker.configure(allowed, attached, 0.0)
 
-            def accept(q: np.ndarray) -> str | None:
-                return None if self.checker.valid(q) else f"in collision ({self.checker.explain(q)})"
+        def accept(q: np.ndarray) -> str | None:
+            room = float(np.min(np.minimum(q - self.lower, self.upper - q)))
+            if room < limit_margin:
+                return f"{room:.3f} rad from a joint limit (needs {limit_margin:g})"
+            if collision_free and not self.checker.valid(q):
+                return f"in collision ({self.checker.explain(q)})"
+            return None
 
-        return self._ik.solve(target, q_seed, rng, accept=accept)
+        return self._ik.solve(target, q_seed, rng,
+                              accept=accept if collision_free or limit_margin > 0.0 else None)
 
     # ------------------------------------------------------------------------------------------ free
     def free(

@@ -95,3 +95,35 @@ def test_ik_falls_back_to_a_home_seed_when_the_seed_strands_the_solver() -> None
     data_pose = solver.fk(q)
     assert np.linalg.norm(data_pose.pos - target.pos) <= config.pos_tol
     assert data_pose.angle_to(target) <= config.rot_tol
+
+
+def test_ik_with_a_limit_margin_returns_only_solutions_that_keep_it(planner: MotionPlanner) -> None:
+    """Seeded at a configuration near a joint limit whose own TCP pose is the target, plain IK returns that
+    configuration; with ``limit_margin`` the solver takes another restart, and what it returns keeps the
+    margin from the model's joint ranges (read raw) and still puts the TCP on the target (raw kinematics)."""
+    model = planner.checker.model
+    lo, hi = model.jnt_range[:7, 0], model.jnt_range[:7, 1]
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(5)
+    margin, vetoed, solved = 0.15, 0, 0
+    for _ in range(24):
+        q_near = HOME_Q + rng.normal(0.0, 0.4, 7)
+        j = int(rng.integers(7))
+        q_near[j] = hi[j] - 0.05 if rng.random() < 0.5 else lo[j] + 0.05  # 0.05 rad inside a limit
+        q_near = np.clip(q_near, lo + 0.01, hi - 0.01)
+        target = planner.fk(q_near)
+        plain = planner.ik(target, q_near, rng)
+        assert np.min(np.minimum(plain - lo, hi - plain)) < margin  # the nearest solution lacks the margin
+        try:
+            q = planner.ik(target, q_near, rng, limit_margin=margin)
+        except MotionFailure as fail:
+            assert "from a joint limit" in fail.reason
+            vetoed += 1
+            continue
+        assert np.all(q - lo >= margin - 1e-9) and np.all(hi - q >= margin - 1e-9), (q, lo, hi)
+        data.qpos[:7] = q
+        mujoco.mj_kinematics(model, data)
+        reached = data.site_xpos[model.site(TCP_SITE).id]
+        assert np.linalg.norm(reached - target.pos) <= planner.config.ik.pos_tol
+        solved += 1
+    assert solved >= 12, (solved, vetoed)
