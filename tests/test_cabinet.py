@@ -176,12 +176,15 @@ class _GapProbe(_Probe):
 
 
 def test_a_relocated_bottle_stands_clear_of_the_arm_while_the_drawer_moves(grasps: GraspDB) -> None:
-    """Task 7, draw 0: the bottle stands in the drawer's way and is put down elsewhere. Before the put-down
-    spot kept clear of the arm's later motions, the wrist hit it while pulling the drawer open
-    (``plan_fail``, link6 <-> obstacle); now, measured from raw MuJoCo: once released the robot stays clear of
-    it, the drawer never touches it, and it never tilts."""
+    """Task 7's placer draw 3 (its base task before issue 12's gate fix accepted draw 0): the bottle stands in
+    the drawer's way and is put down elsewhere. Before the put-down spot kept clear of the arm's later
+    motions, the wrist hit it while pulling the drawer open (``plan_fail``, link6 <-> obstacle); now,
+    measured from raw MuJoCo: once released the robot stays clear of it, the drawer never touches it, and it
+    never tilts."""
     recipe = load_family_recipe("cabinet")
-    task = base_task(recipe, 7)
+    task = draw_task(recipe, 7, 3)
+    task = dataclasses.replace(task, draw=3, gate=check_initial_state(task, recipe, grasps))
+    assert "obstacle" in task.gate["in_the_way"]
     result, frames, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _GapProbe)
     assert result.kept, (result.stage, result.segment, result.reason)
     released = max(t for t, touch in enumerate(probe.robot_touch) if touch)  # the relocation's release
