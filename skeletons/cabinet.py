@@ -107,14 +107,14 @@ class CabinetSkeleton(FamilySkeleton):
             *carry.place_segments(f"{t}spot", retreat_steps=int(p["open_steps"])),
         ]
 
-    def _handle(self, ctx: Context, tag: str, pre: str, end: str,
+    def _handle(self, ctx: Context, tag: str, end: str,
                 riders: tuple[str, ...] = ()) -> list[s.MotionSegment]:
-        """Go to the handle's pre-grasp (runtime target ``pre``), grasp the handle, move it to runtime target
-        ``end`` holding it (``riders``: objects in the drawer, moving with it), release, back off."""
+        """Grasp the handle, move it to runtime target ``end`` holding it (``riders``: objects in the drawer,
+        moving with it), release, back off."""
         p = ctx.params
         return [
             s.gripper(f"{tag}open", "open", steps=int(p["open_steps"])),
-            s.free(f"{tag}pre", pre),
+            s.free(f"{tag}pre", "handle_pre"),
             s.linear(f"{tag}approach", "handle", allow=TOUCH_CABINET),
             s.hold(f"{tag}settle", steps=int(p["handle_settle_steps"])),
             s.gripper(f"{tag}grip", "close", steps=int(p["close_steps"])),
@@ -126,7 +126,7 @@ class CabinetSkeleton(FamilySkeleton):
 
     def _open(self, ctx: Context) -> list[s.MotionSegment]:
         self._choose_handle(ctx)
-        return self._handle(ctx, "drawer_open/", "handle_pre", "pulled")
+        return self._handle(ctx, "drawer_open/", "pulled")
 
     def _place(self, ctx: Context) -> list[s.MotionSegment]:
         p = ctx.params
@@ -142,7 +142,7 @@ class CabinetSkeleton(FamilySkeleton):
         ]
 
     def _close(self, ctx: Context) -> list[s.MotionSegment]:
-        return [*self._handle(ctx, "drawer_close/", "handle_pre_close", "pushed", riders=(TARGET,)),
+        return [*self._handle(ctx, "drawer_close/", "pushed", riders=(TARGET,)),
                 s.hold("rest", steps=int(ctx.params["goal_hold_steps"]))]
 
     @staticmethod
@@ -225,12 +225,6 @@ class CabinetSkeleton(FamilySkeleton):
         limits, whose straight approach and pull lines (planned as the executor will: the hand may touch the
         cabinet, nothing else may but the blockers relocated first) solve, every configuration
         ``grasp_margin`` from the joint limits."""
-        by_id = {g.id: g for g in ctx.grasps.get(CABINET, ())}
-        return tuple(by_id[i] for i in self._handle_plans(ctx))
-
-    def _handle_plans(self, ctx: Context) -> dict[str, np.ndarray]:
-        """:meth:`handle_grasps` as grasp id -> its checked pre-grasp configuration (7,), from the state now
-        (the task-derived seed makes the gate and every attempt agree)."""
         stroke = self.stroke(ctx)
         planner, data, model = ctx.planner, ctx.scene.data, ctx.scene.model
         margin = float(ctx.param("grasp_margin"))
@@ -239,7 +233,7 @@ class CabinetSkeleton(FamilySkeleton):
         moved = self.moved_first(ctx)
         touch = AllowedContacts(TOUCH_CABINET) + moved
         planner.sync(data)
-        out: dict[str, np.ndarray] = {}
+        out = []
         for grasp in ctx.grasps.get(CABINET, ()):
             pose = Pose.from_matrix(grasp.world_matrix(model, data, CABINET))
             pre = Pose(pose.pos - pose.rotation()[:, 2] * float(ctx.variation["handle_standoff"]), pose.quat)
@@ -254,23 +248,17 @@ class CabinetSkeleton(FamilySkeleton):
             qs = np.vstack([q_pre[None], approach.q, pull.q])
             room = float(np.min(np.minimum(qs - planner.lower, planner.upper - qs)))
             if room >= margin:
-                out[grasp.id] = q_pre
-        return out
+                out.append(grasp)
+        return tuple(out)
 
     def _choose_handle(self, ctx: Context) -> Grasp:
-        """This attempt's handle grasp (from the initial state, before any relocation); its pre-grasp
-        configuration as the gate checked it seeds the opening's IK (``ctx.q_hints``), so the arm goes there
-        from wherever a relocation left it."""
         ids = ctx.task.gate.get("handle_grasps")
         grasps = ctx.grasps.get(CABINET, ())
-        plans = self._handle_plans(ctx)
-        usable = tuple(g for g in grasps if g.id in (ids if ids is not None else plans))
+        usable = tuple(g for g in grasps if g.id in ids) if ids is not None else self.handle_grasps(ctx)
         if not usable:
             raise AttemptFailed("no_grasp", "no valid handle grasp of the cabinet is reachable")
         grasp = usable[ctx.variation.pick(len(usable))]
         ctx.memo["handle"] = grasp
-        if grasp.id in plans:
-            ctx.q_hints["handle_pre"] = plans[grasp.id]
         return grasp
 
     def _handle_target(self, name: str, ctx: Context) -> Pose:
@@ -281,7 +269,7 @@ class CabinetSkeleton(FamilySkeleton):
         q = self.drawer_q(ctx)
         if name == "handle":
             return pose
-        if name in ("handle_pre", "handle_pre_close"):
+        if name == "handle_pre":
             return Pose(pose.pos - approach * float(ctx.variation["handle_standoff"]), pose.quat)
         if name == "handle_back":
             tcp = ctx.commanded_tcp()
@@ -361,7 +349,7 @@ class CabinetSkeleton(FamilySkeleton):
         pulled = Pose(pose.pos + ctx.object_pose(CABINET).rotation()[:, 0] * self.stroke(ctx), pose.quat)
         path: list[np.ndarray] = []
         try:
-            q = planner.ik(Pose(pose.pos - back, pose.quat), ctx.q_hints.get("handle_pre", ctx.q_cmd), rng)
+            q = planner.ik(Pose(pose.pos - back, pose.quat), ctx.q_cmd, rng)
             path.append(q[None])
             for goal in (pose, pulled, Pose(pulled.pos - back, pulled.quat)):
                 line = planner.line(path[-1][-1], goal, rng, allowed=loose)
