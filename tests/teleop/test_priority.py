@@ -1,5 +1,5 @@
-"""teleop.priority: the session's threads and the leader reader's process run SCHED_FIFO while asked to, and go
-back afterwards."""
+"""teleop.priority: the session's threads and the leader reader's process run SCHED_FIFO while asked to,
+and go back afterwards."""
 
 from __future__ import annotations
 
