@@ -181,6 +181,12 @@ class DustySkeleton(FamilySkeleton):
                 Param("pour_clearance", float, "m the tilted bowl's outline keeps above the tray's rim",
                       0.0, 0.3),
                 Param("pour_max_joint_change", float, "rad a joint may move in one tilt step", 0.1, 6.3),
+                Param("pour_turns_deg", tuple, "deg: further turns of the hand about the vertical the "
+                      "pour stance may take (after none, the one putting the grasp away from the robot and "
+                      "half of it)", -180.0, 180.0),
+                Param("pour_axis_turns_deg", tuple, "deg: turns about the vertical of the tilt axis from "
+                      "the one lowering the rim opposite the hand, tried in order (a round carrier pours "
+                      "over any rim point alike)", -90.0, 90.0),
                 Param("pour_slide_margin_deg", float, "deg the final tilt keeps past the one at which the "
                       "food slides off the carrier's lowest wall", 0.0, 60.0),
                 Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
@@ -488,12 +494,15 @@ class DustySkeleton(FamilySkeleton):
         facing = math.atan2(away[1], away[0]) - math.atan2(radial[1], radial[0])
         facing = math.atan2(math.sin(facing), math.cos(facing))  # turn putting the radial away from the robot
         yaws = (0.0, facing, facing / 2) if abs(facing) > math.radians(10.0) else (0.0,)
+        yaws += tuple(math.radians(float(a)) for a in ctx.param("pour_turns_deg"))
+        betas = tuple(math.radians(float(b)) for b in ctx.param("pour_axis_turns_deg"))
         least = math.degrees(_slide_tilt(ctx)) + float(ctx.param("pour_slide_margin_deg"))
         first = max(float(ctx.variation["pour_angle_deg"]), least)
         for angle in (math.radians(min(first + d, 150.0)) for d in (0.0, 10.0, 20.0)):
-            for yaw in yaws:
+            for beta, yaw in ((b, y) for b in betas for y in yaws):
                 level = _turn(UP, yaw) @ rot0
                 axis = np.cross(_turn(UP, yaw) @ radial, UP)  # turning about it lowers the opposite rim
+                axis = _turn(UP, beta) @ axis  # … or the rim ``beta`` round from it
                 turns = [_turn(axis, angle * k / n) @ level for k in range(n + 1)]
                 low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
                           for r in turns)
@@ -509,5 +518,5 @@ class DustySkeleton(FamilySkeleton):
                     ctx.q_hints.update(zip(names, qs, strict=True))
                     return pos, Pose.from_pos_mat(pos, level).quat, axis, angle
         raise AttemptFailed("target_fail", f"no pour stance over the tray is reachable holding the bowl "
-                            f"({len(offsets)} aim points, {len(yaws)} turns; {first:.0f}°, 10° and 20° "
-                            "more)")
+                            f"({len(offsets)} aim points, {len(yaws)} turns, {len(betas)} tilt axes; "
+                            f"{first:.0f}°, 10° and 20° more)")
