@@ -20,9 +20,12 @@ wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a f
    round-robin over the reachable ones; lift clear of everything.
 5. **Pour**: carry the bowl (joint-space, ``carry_speed``) to the pour stance, then tilt it in
    ``pour_steps`` joint-space turns about the horizontal axis through the TCP perpendicular to the bowl's
-   grasp radius, its far side down, to ``pour_angle_deg`` (:meth:`DustySkeleton._pour_plan`: the mouth over
-   the tray, the bowl's outline ``pour_clearance`` above the rim, every step reachable); hold while the
-   food falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at rest).
+   grasp radius, its far side down (or about that axis turned ``pour_axis_turns_deg`` about the vertical:
+   the bowl pours over another rim point), to ``pour_angle_deg`` (:meth:`DustySkeleton._pour_plan`: the
+   hand turned about the vertical as carried, facing away from the robot, half way or by
+   ``pour_turns_deg``; the mouth over the tray, the bowl's outline ``pour_clearance`` above the rim, every
+   step reachable); hold while the food falls and settles (the gate: food inside the tray, tray clean,
+   upright and not moved, at rest).
 
 The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
 pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.
@@ -464,7 +467,9 @@ class DustySkeleton(FamilySkeleton):
     def _pour_plan(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """The pour stance: TCP position, level orientation, tilt axis and angle. The level orientation is
         the current one, else turned about the vertical so that the grasp's radius points away from the
-        robot (or half way): the tilt then lowers the rim opposite the hand. The stance puts the bowl's
+        robot (or half way), else by each of ``pour_turns_deg``; the tilt lowers the rim opposite the hand,
+        else (the tilt axis turned by ``pour_axis_turns_deg``) a rim point that far round from it: all
+        turns are tried with the first axis, then with the next. The stance puts the bowl's
         mouth, at the final tilt, over a point of the tray's cavity (its centre first, then
         ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`) ``pour_clearance``
         above the tray's rim at each tilt step. The tilt is the drawn angle but at least
