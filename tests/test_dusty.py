@@ -12,6 +12,8 @@ the predicates:
   unsafe (``food_not_touched``) at exactly the first step where a robot geom touches the food;
 * pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
   enters the tray's cavity, with dust still on it.
+* a previously failing pour (task 25 draw 0: no stance over the rim opposite the hand was reachable) is now
+  kept, and the candy ends inside the tray's bounding box at rest.
 """
 
 from __future__ import annotations
