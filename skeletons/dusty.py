@@ -20,9 +20,12 @@ wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a f
    round-robin over the reachable ones; lift clear of everything.
 5. **Pour**: carry the bowl (joint-space, ``carry_speed``) to the pour stance, then tilt it in
    ``pour_steps`` joint-space turns about the horizontal axis through the TCP perpendicular to the bowl's
-   grasp radius, its far side down, to ``pour_angle_deg`` (:meth:`DustySkeleton._pour_plan`: the mouth over
-   the tray, the bowl's outline ``pour_clearance`` above the rim, every step reachable); hold while the
-   food falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at rest).
+   grasp radius, its far side down (or about that axis turned ``pour_axis_turns_deg`` about the vertical:
+   the bowl pours over another rim point), to ``pour_angle_deg`` (:meth:`DustySkeleton._pour_plan`: the
+   hand turned about the vertical as carried, facing away from the robot, half way or by
+   ``pour_turns_deg``; the mouth over the tray, the bowl's outline ``pour_clearance`` above the rim, every
+   step reachable); hold while the food falls and settles (the gate: food inside the tray, tray clean,
+   upright and not moved, at rest).
 
 The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
 pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.
@@ -181,6 +184,12 @@ class DustySkeleton(FamilySkeleton):
                 Param("pour_clearance", float, "m the tilted bowl's outline keeps above the tray's rim",
                       0.0, 0.3),
                 Param("pour_max_joint_change", float, "rad a joint may move in one tilt step", 0.1, 6.3),
+                Param("pour_turns_deg", tuple, "deg: further turns of the hand about the vertical the "
+                      "pour stance may take (after none, the one putting the grasp away from the robot and "
+                      "half of it)", -180.0, 180.0),
+                Param("pour_axis_turns_deg", tuple, "deg: turns about the vertical of the tilt axis from "
+                      "the one lowering the rim opposite the hand, tried in order (a round carrier pours "
+                      "over any rim point alike)", -90.0, 90.0),
                 Param("pour_slide_margin_deg", float, "deg the final tilt keeps past the one at which the "
                       "food slides off the carrier's lowest wall", 0.0, 60.0),
                 Param("pour_hold_steps", int, "control steps holding the tilt while the food settles",
@@ -458,7 +467,9 @@ class DustySkeleton(FamilySkeleton):
     def _pour_plan(self, ctx: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """The pour stance: TCP position, level orientation, tilt axis and angle. The level orientation is
         the current one, else turned about the vertical so that the grasp's radius points away from the
-        robot (or half way): the tilt then lowers the rim opposite the hand. The stance puts the bowl's
+        robot (or half way), else by each of ``pour_turns_deg``; the tilt lowers the rim opposite the hand,
+        else (the tilt axis turned by ``pour_axis_turns_deg``) a rim point that far round from it: all
+        turns are tried with the first axis, then with the next. The stance puts the bowl's
         mouth, at the final tilt, over a point of the tray's cavity (its centre first, then
         ``pour_aim_offsets`` along the tray's axes) with its outline (:func:`_outline`) ``pour_clearance``
         above the tray's rim at each tilt step. The tilt is the drawn angle but at least
@@ -488,12 +499,15 @@ class DustySkeleton(FamilySkeleton):
         facing = math.atan2(away[1], away[0]) - math.atan2(radial[1], radial[0])
         facing = math.atan2(math.sin(facing), math.cos(facing))  # turn putting the radial away from the robot
         yaws = (0.0, facing, facing / 2) if abs(facing) > math.radians(10.0) else (0.0,)
+        yaws += tuple(math.radians(float(a)) for a in ctx.param("pour_turns_deg"))
+        betas = tuple(math.radians(float(b)) for b in ctx.param("pour_axis_turns_deg"))
         least = math.degrees(_slide_tilt(ctx)) + float(ctx.param("pour_slide_margin_deg"))
         first = max(float(ctx.variation["pour_angle_deg"]), least)
         for angle in (math.radians(min(first + d, 150.0)) for d in (0.0, 10.0, 20.0)):
-            for yaw in yaws:
+            for beta, yaw in ((b, y) for b in betas for y in yaws):
                 level = _turn(UP, yaw) @ rot0
                 axis = np.cross(_turn(UP, yaw) @ radial, UP)  # turning about it lowers the opposite rim
+                axis = _turn(UP, beta) @ axis  # … or the rim ``beta`` round from it
                 turns = [_turn(axis, angle * k / n) @ level for k in range(n + 1)]
                 low = min(float(np.min((r @ in_tcp.pos + corners @ (r @ in_tcp.rotation()).T)[:, 2]))
                           for r in turns)
@@ -509,5 +523,5 @@ class DustySkeleton(FamilySkeleton):
                     ctx.q_hints.update(zip(names, qs, strict=True))
                     return pos, Pose.from_pos_mat(pos, level).quat, axis, angle
         raise AttemptFailed("target_fail", f"no pour stance over the tray is reachable holding the bowl "
-                            f"({len(offsets)} aim points, {len(yaws)} turns; {first:.0f}°, 10° and 20° "
-                            "more)")
+                            f"({len(offsets)} aim points, {len(yaws)} turns, {len(betas)} tilt axes; "
+                            f"{first:.0f}°, 10° and 20° more)")

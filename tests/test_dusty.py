@@ -12,6 +12,8 @@ the predicates:
   unsafe (``food_not_touched``) at exactly the first step where a robot geom touches the food;
 * pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
   enters the tray's cavity, with dust still on it.
+* a previously failing pour (task 25 draw 0: no stance over the rim opposite the hand was reachable) is now
+  kept, and the candy ends inside the tray's bounding box at rest.
 """
 
 from __future__ import annotations
@@ -247,3 +249,45 @@ def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> N
     assert r < float(geo["rim_radius"]) and 0.0 < z < float(geo["height"]), "still in the bowl"
     r, z = _tilt_bowl(recipe, least)
     assert r > float(geo["rim_radius"]) + 0.02 or z > float(geo["height"]) + 0.02, "out of the bowl"
+
+
+class _EndProbe(JointController):
+    """After every control step, from raw MuJoCo: the food's box centre in the tray's frame, whether it is
+    inside the tray's own bounding box (from its geoms), and the bowl's tilt from the vertical (deg)."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.food_local: list[np.ndarray] = []
+        self.inside: list[bool] = []
+        self.bowl_tilt: list[float] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        tray, bowl = m.body("dest").id, m.body("source").id
+        lo, hi = rawdata.local_box(m, d, tray)
+        local = (rawdata.box_centre(m, d, m.body("food").id) - d.xpos[tray]) @ d.xmat[tray].reshape(3, 3)
+        self.food_local.append(local)
+        self.inside.append(bool(np.all((local >= lo) & (local <= hi))))
+        self.bowl_tilt.append(math.degrees(math.acos(np.clip(d.xmat[bowl].reshape(3, 3)[2, 2], -1.0, 1.0))))
+
+
+NEWLY_POURED = 25  # draw 0 found no stance tilting over the rim opposite the hand turned 0°, -5° or -10°
+
+
+def test_a_pour_out_of_reach_over_the_opposite_rim_still_lands_in_the_tray(recipe: Recipe,
+                                                                           grasps: GraspDB) -> None:
+    """Task 25's first attempt, out of the arm's reach with the hand turned as carried or towards facing
+    away from the robot and the bowl tilted over the rim opposite the hand, is kept (the hand turned further,
+    or the bowl poured over a rim point 30° round): from raw MuJoCo data the candy starts outside the tray,
+    in the bowl, and ends with its box centre inside the tray's bounding box, at rest over the gate's last
+    frames, the bowl tilted past the static sliding tilt."""
+    result, _, _, probe = probed_attempt(base_task(recipe, NEWLY_POURED), recipe, grasps, DustySkeleton(),
+                                            _EndProbe)
+    assert result.kept, (result.stage, result.segment, result.reason)
+    assert probe.bowl_tilt[-1] > 90.0, probe.bowl_tilt[-1]
+    hold = int(recipe.tasks.hold_steps)
+    assert all(probe.inside[-hold:]), "the candy ends inside the tray"
+    end = np.array(probe.food_local[-hold:])
+    assert float(np.max(np.linalg.norm(np.diff(end, axis=0), axis=1))) * 20.0 < 0.01, "and at rest"
+    assert not probe.inside[0], "it started outside, in the bowl"
