@@ -45,6 +45,7 @@ from pathlib import Path
 
 from mgdata.engine.commands import parse_ids
 from mgdata.engine.generate import GenerateJob, generate
+from mgdata.engine.init_gate import forget_base_tasks
 from mgdata.engine.summary import RunSummary
 from mgdata.engine.timing import PHASES
 from mgdata.paths import recipes_dir
@@ -82,6 +83,7 @@ def run(family: str, n: int, workers: int, tasks: str, root: Path, render: str,
         recipe: Path | None) -> Measured:
     out = root / f"{family}_w{workers}_{render}"
     shutil.rmtree(out, ignore_errors=True)
+    forget_base_tasks()  # with one worker the attempts run in this process: each run gates its own tasks
     cpu0 = cpu_seconds()
     summary = generate(GenerateJob(family=family, n=n, out=out, tasks=parse_ids(tasks), workers=workers,
                                    recipe=recipe, render_after=render == "after"))

@@ -100,6 +100,11 @@ def cached_grasp_db(folder: Path) -> GraspDB:
 _ACCEPTED: dict[tuple[str, str, int, str], TaskSpec] = {}
 
 
+def forget_base_tasks() -> None:
+    """Drop the base tasks this process has gated (a benchmark's next run then pays its own gate)."""
+    _ACCEPTED.clear()
+
+
 def _gated(recipe: Recipe, task_id: int, grasps: Path) -> TaskSpec:
     if not 0 <= task_id < recipe.tasks.count:
         raise RecipeError(f"{recipe.path}: task {task_id} does not exist (the recipe has tasks 0 … "
