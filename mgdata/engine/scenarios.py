@@ -29,6 +29,7 @@ import hashlib
 import io
 import json
 import multiprocessing
+import os
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -43,6 +44,7 @@ from mgdata import __version__
 from mgdata.atomic import write_bytes_atomic, write_text_atomic
 from mgdata.engine import chunkstore
 from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
+from mgdata.engine.pool_worker import die_with_parent
 from mgdata.errors import DatasetError, RecipeError, SceneError
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
@@ -221,7 +223,8 @@ def build_family(
             yield from entries
             write_manifest(out)
         return
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         for entries in pool.map(_build_task, jobs):
             yield from entries
             write_manifest(out)
@@ -309,7 +312,8 @@ def verify(out: Path, workers: int = 1) -> Iterator[tuple[str, str | None]]:
     if workers <= 1:
         yield from map(_verify_one, jobs)
         return
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         yield from pool.map(_verify_one, jobs, chunksize=4)
 
 

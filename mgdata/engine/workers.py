@@ -24,11 +24,9 @@ Example::
 from __future__ import annotations
 
 import collections
-import contextlib
-import ctypes
 import multiprocessing as mp
+import os
 import signal
-import sys
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
@@ -38,6 +36,7 @@ from types import TracebackType
 from mgdata.engine.deferred import DeferredRenderSink
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
+from mgdata.engine.pool_worker import die_with_parent
 from mgdata.engine.scenarios import attempt_condition, variant
 from mgdata.engine.skeleton import load_family_recipe
 from mgdata.engine.timing import Timings
@@ -49,7 +48,6 @@ from mgdata.record.video import VideoSettings
 from mgdata.sim.renderer import CameraRig
 from mgdata.tasks.taskspec import TaskSpec
 
-_PR_SET_PDEATHSIG = 1
 EXECUTOR_CACHE = 2
 """Executors (one per task) kept alive per worker; rebuilding one costs a fraction of an attempt."""
 
@@ -149,20 +147,12 @@ _WORKER: Worker | None = None
 _START_ERROR: BaseException | None = None
 
 
-def _die_with_parent() -> None:
-    """Linux: have the kernel kill this worker if the main process dies (e.g. ``kill -9``), so no orphan
-    keeps simulating and writing into the dataset's staging area after its run is gone."""
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-
-
-def _init_worker(config: WorkerConfig) -> None:
+def _init_worker(config: WorkerConfig, parent: int) -> None:
     """Build this process's :class:`Worker`; a failure is kept and raised by every attempt (never a crash
     at start-up, which a pool would answer with a new process failing the same way)."""
     global _WORKER, _START_ERROR
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's: it decides what to keep
+    die_with_parent(parent)
     try:
         _WORKER = Worker(config)
     except Exception as err:  # handed to the main process with the first attempt
@@ -191,7 +181,8 @@ class AttemptPool:
         self._queue: collections.deque[tuple[int, int, Future[AttemptDone] | None]] = collections.deque()
         self._local = Worker(config) if workers == 1 else None
         self._pool = None if workers == 1 else ProcessPoolExecutor(
-            workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(config,))
+            workers, mp_context=mp.get_context("spawn"), initializer=_init_worker,
+            initargs=(config, os.getpid()))
 
     @property
     def in_flight(self) -> int:

@@ -23,8 +23,6 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
-import threading
-import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
@@ -32,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from mgdata.atomic import write_text_atomic
+from mgdata.engine.pool_worker import die_with_parent
 from mgdata.engine.scenarios import read_manifest
 from mgdata.errors import DatasetError, OutputError
 from mgdata.evaluate.client import PolicyClient
@@ -174,7 +173,7 @@ def _parallel(todo: list[RolloutJob], job: EvalJob, finished: Callable[[dict[str
     the run after little wasted work); records are handed to ``finished`` as they arrive."""
     pending = list(reversed(todo))
     with ProcessPoolExecutor(job.workers, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         running: set[Future[dict[str, Any]]] = set()
         try:
             while pending or running:
@@ -187,15 +186,3 @@ def _parallel(todo: list[RolloutJob], job: EvalJob, finished: Callable[[dict[str
             for f in running:
                 f.cancel()
             raise
-
-
-def _exit_with_parent(parent: int) -> None:
-    """In a worker: exit as soon as the evaluating process is gone (killed), instead of finishing a rollout
-    nobody will record."""
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(0.5)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
