@@ -24,6 +24,7 @@ The drawer keeps the asset's joint parameters (damping, friction) for the whole 
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 from collections.abc import Sequence
@@ -348,7 +349,7 @@ class CabinetSkeleton(FamilySkeleton):
         back = pose.rotation()[:, 2] * float(ctx.variation["handle_standoff"])
         pulled = Pose(pose.pos + ctx.object_pose(CABINET).rotation()[:, 0] * self.stroke(ctx), pose.quat)
         path: list[np.ndarray] = []
-        try:
+        with contextlib.suppress(MotionFailure):  # the rest is left out: the executor fails on it
             q = planner.ik(Pose(pose.pos - back, pose.quat), ctx.q_cmd, rng)
             path.append(q[None])
             for goal in (pose, pulled, Pose(pulled.pos - back, pulled.quat)):
@@ -360,8 +361,6 @@ class CabinetSkeleton(FamilySkeleton):
                 pre = Pose(grasp_tcp.pos - grasp_tcp.rotation()[:, 2] * standoff, grasp_tcp.quat)
                 q = planner.ik(pre, path[-1][-1], rng)
                 path.append(planner.line(q, grasp_tcp, rng, allowed=loose).q)
-        except MotionFailure:  # the rest is left out: the executor fails on that part anyway
-            pass
         return np.vstack(path) if path else np.zeros((0, 7))
 
     def _spot_leaves_clear(self, ctx: Context, role: str, at: Pose, later: np.ndarray) -> bool:
