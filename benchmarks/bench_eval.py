@@ -21,9 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from mgdata.engine.scenarios import build_scenario, read_manifest, write_manifest
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, rollout
+from mgdata.scenarios.store import build_scenario, read_manifest, write_manifest
+from mgdata.skeleton.skeleton import load_family_recipe
 
 
 def _server_cpu(pid: int) -> float:

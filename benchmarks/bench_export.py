@@ -95,7 +95,7 @@ def _column_bytes(root: Path, key: str) -> int:
 
 def bench_physics(work: Path, demos: int) -> None:
     """The overhead of the physics state and scenes in a real generated jar dataset."""
-    from mgdata.engine.generate import GenerateJob, generate
+    from mgdata.generate.run import GenerateJob, generate
     from mgdata.record import layout
     from mgdata.record.reader import DatasetReader
     from mgdata.record.scenes import Scenes

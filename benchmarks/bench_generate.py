@@ -43,11 +43,11 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from mgdata.engine.commands import parse_ids
-from mgdata.engine.generate import GenerateJob, generate
 from mgdata.engine.init_gate import forget_base_tasks
-from mgdata.engine.summary import RunSummary
-from mgdata.engine.timing import PHASES
+from mgdata.episode.timing import PHASES
+from mgdata.generate.commands import parse_ids
+from mgdata.generate.run import GenerateJob, generate
+from mgdata.generate.summary import RunSummary
 from mgdata.paths import recipes_dir
 
 

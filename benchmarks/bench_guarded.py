@@ -20,18 +20,18 @@ from types import MappingProxyType
 import mujoco
 import numpy as np
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
-from mgdata.engine.segment import MotionSegment
-from mgdata.engine.skeleton import FamilySkeleton, register
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.record.episode import MemorySink
 from mgdata.sim.assets import get_model
+from mgdata.sim.taskspec import ObjectPlacement, TaskSpec
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.segment import MotionSegment
+from mgdata.skeleton.skeleton import FamilySkeleton, register
 from mgdata.spec import Proposition, SafetySpec
 from mgdata.tasks.recipe import Recipe, TaskSettings
-from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
 PAIRS = ((3.0, 5.0), (8.0, 12.0), (15.0, 20.0), (25.0, 40.0), (40.0, 60.0))

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mgdata.engine.generate import GenerateJob, generate
+from mgdata.generate.run import GenerateJob, generate
 from mgdata.paths import recipes_dir
 from mgdata.record.reader import DatasetReader
 from mgdata.record.rerender import RenderJob, rerender

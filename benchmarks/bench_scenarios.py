@@ -19,8 +19,8 @@ from collections import defaultdict
 from pathlib import Path
 
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.scenarios import CHUNKS, build_scenario
-from mgdata.engine.skeleton import load_family_recipe
+from mgdata.scenarios.store import CHUNKS, build_scenario
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.variants import CONDITIONS
 
 

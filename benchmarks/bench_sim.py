@@ -38,12 +38,13 @@ from mgdata.ltl import Monitor
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
 from mgdata.sim.cameras import CAMERA_NAMES
+from mgdata.sim.config import default_image_size
 from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.renderer import CameraRig, contact_sheet
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 from mgdata.spec import Constraint, Proposition, SafetySpec
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 
 JAR_SPEC = SafetySpec(
     "jar",
@@ -57,7 +58,7 @@ JAR_SPEC = SafetySpec(
 
 def task(*objects: ObjectPlacement, **kw: object) -> TaskSpec:
     return TaskSpec("jar", 0, "base", "close the jar and put it in the green region", objects, JAR_SPEC,
-                    **kw)  # type: ignore[arg-type]
+                    **{"image_size": default_image_size(), **kw})  # type: ignore[arg-type]
 
 
 def jar_task() -> TaskSpec:

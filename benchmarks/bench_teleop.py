@@ -26,20 +26,20 @@ import time
 from pathlib import Path
 
 import numpy as np
+import mgdata.teleop.bus
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
+from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.gello import gello_motors
+from mgdata.teleop.mapping import mapper_for
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.session import SessionJob, TeleopSession
+from mgdata.teleop.so101.calibration import so101_motors
+from mgdata.teleop.view import OperatorView
 
-import teleop.bus
 from mgdata.sim.robot import HOME_Q
-from teleop.bus import ServoBus
-from teleop.config import load_teleop_config
-from teleop.emulator.arms import ArmBuild, ManualClock
-from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
-from teleop.emulator.script import JointScript
-from teleop.gello import gello_motors
-from teleop.mapping import mapper_for
-from teleop.reader import LeaderReader
-from teleop.session import SessionJob, TeleopSession
-from teleop.so101.calibration import so101_motors
-from teleop.view import OperatorView
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 RECEIPT = """
@@ -334,7 +334,7 @@ def main() -> None:
     parser.add_argument("--skip-sync", action="store_true", help="skip the sync-read rates")
     args = parser.parse_args()
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; reply latency allowance "
-          f"{teleop.bus.DEFAULT_LATENCY_MS:.0f} ms")
+          f"{mgdata.teleop.bus.DEFAULT_LATENCY_MS:.0f} ms")
     if not args.skip_sync:
         for family, name in (("dynamixel", "GELLO 8 x XL330"), ("feetech", "SO-101 6 x STS3215")):
             print(f"sync read {name}: {sync_read_rate(family):.0f} reads/s (target >= 1000)")

@@ -8,13 +8,16 @@ status 2; anything else is a bug and keeps its traceback.
 
 from __future__ import annotations
 
+import os
 import sys
+from pathlib import Path
 
 import typer
 
 from mgdata import __version__
 from mgdata.console import print_error
 from mgdata.errors import MgdataError
+from mgdata.paths import ROOT_ENV
 
 app = typer.Typer(
     name="mgdata",
@@ -40,29 +43,29 @@ def _version(value: bool) -> None:
 def _root(
     version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version,
                                  is_eager=True),
+    root: Path | None = typer.Option(None, "--root", help="Folder holding recipes/, grasps/ (and skeletons/, "  # noqa: B008
+                                     "datasets/) to use instead of the installed ones; same as MGDATA_ROOT."),
 ) -> None:
     """mgdata: safety-annotated manipulation demonstrations."""
+    if root is not None:
+        os.environ[ROOT_ENV] = str(root)  # the environment: worker processes see it too
 
 
 # --- command registry: one line per command module -------------------------------------------------------
-# (each module exposes ``register(app)``)
-COMMAND_MODULES: tuple[str, ...] = (
-    "mgdata.grasps.commands",
-    "mgdata.engine.commands",
-    "mgdata.engine.scenario_commands",
-    "mgdata.evaluate.commands",
-    "mgdata.record.commands",
-    "mgdata.ltl.commands",
-    "mgdata.annotate.commands",
-    "teleop.commands",
-)
-
-
+# (each module exposes ``register(app)``; this top layer composes the layers below it, which never import it)
 def _register_all() -> None:
-    import importlib
+    from mgdata.annotator import commands as annotator
+    from mgdata.evaluate import commands as evaluate
+    from mgdata.evaluate import metrics_commands
+    from mgdata.generate import commands as generate
+    from mgdata.grasps import commands as grasps
+    from mgdata.ltl import commands as ltl
+    from mgdata.record import commands as record
+    from mgdata.scenarios import commands as scenarios
+    from mgdata.teleop import commands as teleop
 
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(app)
+    for module in (grasps, generate, scenarios, evaluate, record, ltl, metrics_commands, annotator, teleop):
+        module.register(app)
 
 
 OPTIONAL_VALUES = {"--ray": "local"}

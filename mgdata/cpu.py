@@ -2,7 +2,7 @@
 
 Two places depend on them: the H.264 encoder (x264's AVX-512 code path is not deterministic, so
 :mod:`mgdata.record.video` keeps x264 to AVX2 on a machine that has AVX-512) and the fingerprint a Ray node
-checks before it contributes attempts (:mod:`mgdata.engine.fingerprint`: MuJoCo's results can differ
+checks before it contributes attempts (:mod:`mgdata.generate.fingerprint`: MuJoCo's results can differ
 between instruction sets).
 
 Example::

@@ -32,8 +32,8 @@ JAR_TRUTH_EVERY = 25  # the generated jar dataset: every 25th frame, decoded by 
 
 
 def generate(work: Path) -> None:
+    from mgdata.record.export import export_dataset
     from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
-    from mgdata.record.views import export_dataset
     from mgdata.record.writer import DatasetWriter
 
     schema = synthetic_schema()
@@ -60,10 +60,10 @@ def generate(work: Path) -> None:
 
 def generate_jar(out: Path) -> None:
     """A real ``mgdata generate`` dataset, and frames of it decoded by mgdata's reader to compare against."""
-    from mgdata.engine.generate import GenerateJob
-    from mgdata.engine.generate import generate as run
+    from mgdata.generate.run import GenerateJob
+    from mgdata.generate.run import generate as run
+    from mgdata.record.export import export_dataset
     from mgdata.record.reader import DatasetReader
-    from mgdata.record.views import export_dataset
 
     summary = run(GenerateJob(family="jar", n=2, out=out, tasks=(0, 1), workers=1, keep_failed=True))
     if summary.total_kept < 2:

@@ -18,11 +18,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
-from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
-from mgdata.engine.skeleton import FamilySkeleton, register
 from mgdata.motion import Pose
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.skeleton import FamilySkeleton, register
 
 PICKED = ("target", "container")
 """The role picked: ``target`` (dry) or ``container`` (liquid)."""

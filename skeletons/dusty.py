@@ -39,17 +39,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed
-from mgdata.engine.init_gate import Infeasible
-from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
-from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
+from mgdata.episode.gate import AttemptFailed
 from mgdata.grasps.db import Grasp
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
 from mgdata.sim.assets import ObjectModel
 from mgdata.sim.geometry import box_corners
 from mgdata.sim.robot import FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Knob, Param, RecipeKeys, register
 
 _PICK_PARAMS = ("open_steps", "grasp_settle_steps", "close_steps", "lift_margin", "carry_speed",
                 "grasp_margin", "grasp_clearance", "reach_standoff")

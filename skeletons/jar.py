@@ -20,13 +20,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed
-from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
-from mgdata.engine.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
+from mgdata.episode.gate import AttemptFailed
 from mgdata.motion import Pose
 from mgdata.sim.robot import FINGERTIP_REACH, PALM_DEPTH
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
 
 TOUCH_JAR = (("hand", "jar"),)
 

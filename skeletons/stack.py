@@ -29,16 +29,15 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed
-from mgdata.engine.init_gate import Infeasible
-from mgdata.engine.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
-from mgdata.engine.skeleton import FamilySkeleton, Param, RecipeKeys, register
+from mgdata.episode.gate import AttemptFailed
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.world import TABLE_TOP_Z
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Param, RecipeKeys, register
 from mgdata.tasks.placer import footprint_radius
 
 TARGET = "target"

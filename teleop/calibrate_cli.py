@@ -7,10 +7,10 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Sequence
 
-from teleop.bus import ServoBus
-from teleop.gello import GelloCalibration, GelloCalibrator, gello_motors
-from teleop.motion_check import MotionWatch
-from teleop.so101.calibration import MOTOR_NAMES, SO101Calibration, SO101Calibrator, so101_motors
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.gello import GelloCalibration, GelloCalibrator, gello_motors
+from mgdata.teleop.motion_check import MotionWatch
+from mgdata.teleop.so101.calibration import MOTOR_NAMES, SO101Calibration, SO101Calibrator, so101_motors
 
 Prompt = Callable[..., None]
 Say = Callable[[str], None]

@@ -62,7 +62,7 @@ def teleop(
         raise RecipeError("mgdata teleop needs --arm (gello or so101) and --out DATASET "
                           "(or a subcommand: calibrate, replay)")
     _check_arm(arm)
-    from teleop.live import LiveOptions, run_live
+    from mgdata.teleop.live import LiveOptions, run_live
 
     run_live(LiveOptions(arm=arm, family=family, task=task, out=out,
                          calibration=calibration or Path(f"teleop-{arm}.json"), port=port,
@@ -87,8 +87,8 @@ def calibrate(
     Example: mgdata teleop calibrate --arm gello --port /dev/ttyUSB0 --out teleop-gello.json
     """
     _check_arm(arm)
-    from teleop.calibrate_cli import calibrate_gello_interactive, calibrate_so101_interactive
-    from teleop.config import load_teleop_config
+    from mgdata.teleop.calibrate_cli import calibrate_gello_interactive, calibrate_so101_interactive
+    from mgdata.teleop.config import load_teleop_config
 
     baud = load_teleop_config().leader.baudrate
     path = out or Path(f"teleop-{arm}.json")
@@ -115,7 +115,7 @@ def replay(
 
     Example: mgdata teleop replay datasets/jar_teleop --episode 0 --out /tmp/jar_replayed
     """
-    from teleop.live import replay_episode
+    from mgdata.teleop.live import replay_episode
 
     _say(replay_episode(dataset, episode, out))
 

@@ -12,13 +12,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.mapping import mapper_for
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.session import SessionJob, TeleopSession
+from mgdata.teleop.stream import LeaderStream, stream_path
+
 from mgdata.errors import DatasetError, RecipeError
-from teleop.bus import ServoBus
-from teleop.config import load_teleop_config
-from teleop.mapping import mapper_for
-from teleop.reader import LeaderReader
-from teleop.session import SessionJob, TeleopSession
-from teleop.stream import LeaderStream, stream_path
 
 _FAMILY = {"gello": "dynamixel", "so101": "feetech"}
 
@@ -43,7 +44,7 @@ class LiveOptions:
 
 def _keys(session: TeleopSession, stop: threading.Event) -> None:
     """Terminal hotkeys (one letter, no Enter) while stdin is a terminal."""
-    from teleop.view import _BUTTONS
+    from mgdata.teleop.view import _BUTTONS
 
     keymap = {key: cmd for _label, cmd, key in _BUTTONS}
     fd = sys.stdin.fileno()
@@ -80,7 +81,7 @@ def run_live(opts: LiveOptions, say: Callable[[str], None]) -> None:
         session = TeleopSession(SessionJob(opts.arm, opts.family, opts.task, opts.out, opts.keep_failed,
                                            opts.episodes, opts.autostart), mapper, text, reader)
         if opts.view:
-            from teleop.view import OperatorView
+            from mgdata.teleop.view import OperatorView
 
             view = OperatorView(session, opts.host, opts.http_port, config.view)
             session.on_status = view.update

@@ -20,13 +20,13 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from mgdata.teleop.bus import Motor
+from mgdata.teleop.config import TeleopConfig
+from mgdata.teleop.gello import GelloCalibration
+from mgdata.teleop.retarget import Retargeter, RetargetStep
+from mgdata.teleop.so101.calibration import SO101Calibration
 
 from mgdata.errors import RecipeError
-from teleop.bus import Motor
-from teleop.config import TeleopConfig
-from teleop.gello import GelloCalibration
-from teleop.retarget import Retargeter, RetargetStep
-from teleop.so101.calibration import SO101Calibration
 
 ARMS = ("gello", "so101")
 

@@ -3,7 +3,7 @@ recorder, monitor and gate into the same LeRobot dataset (``source = gello|so101
 
 One control loop at the dataset rate (20 Hz, paced on the monotonic clock) takes the newest leader reading
 (the :class:`~teleop.reader.LeaderReader` process reads at ≥ 100 Hz), maps it to an action and steps an
-:class:`~mgdata.engine.runner.EpisodeRunner`. Operator commands (browser buttons or terminal keys) are queued
+:class:`~mgdata.episode.runner.EpisodeRunner`. Operator commands (browser buttons or terminal keys) are queued
 and applied at the top of a step:
 
 * ``record``: reset the task to its initial state and start an episode;
@@ -33,15 +33,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.mapping import Mapper, StepEvents
+from mgdata.teleop.priority import realtime
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.stream import LeaderStream, stream_rel
 
 from mgdata.engine.executor import dataset_schema
-from mgdata.engine.gate import SuccessGate
-from mgdata.engine.generate import failed_path
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.runner import EpisodeRunner, StepOutcome
-from mgdata.engine.skeleton import load_family_recipe
-from mgdata.engine.success import SuccessCheck
+from mgdata.episode.gate import SuccessGate
+from mgdata.episode.runner import EpisodeRunner, StepOutcome
+from mgdata.episode.success import SuccessCheck
 from mgdata.errors import RecipeError, SimulationError
+from mgdata.generate.run import failed_path
 from mgdata.record.commit import work_dir
 from mgdata.record.episode import EpisodeMeta, Frame
 from mgdata.record.recorder import Recorder
@@ -50,11 +54,7 @@ from mgdata.record.writer import DatasetWriter
 from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
-from teleop.config import load_teleop_config
-from teleop.mapping import Mapper, StepEvents
-from teleop.priority import realtime
-from teleop.reader import LeaderReader
-from teleop.stream import LeaderStream, stream_rel
+from mgdata.skeleton.skeleton import load_family_recipe
 
 SWITCH_S = 0.001
 """The interpreter's thread switch interval during a live session (s; Python's default is 5 ms)."""

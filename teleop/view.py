@@ -33,11 +33,10 @@ from typing import Any
 
 import mujoco
 import numpy as np
-
-from teleop.config import ViewConfig, load_teleop_config
-from teleop.page import OperatorPage
-from teleop.sdk import require
-from teleop.session import SessionStatus, TeleopSession
+from mgdata.teleop.config import ViewConfig, load_teleop_config
+from mgdata.teleop.page import OperatorPage
+from mgdata.teleop.sdk import require
+from mgdata.teleop.session import SessionStatus, TeleopSession
 
 _BUTTONS = (("Record", "record", "r"), ("Stop", "stop", "s"), ("Mark done", "done", "m"),
             ("Discard", "discard", "d"), ("Reset task", "reset", "t"), ("Clutch", "clutch", "c"),

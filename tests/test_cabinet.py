@@ -18,26 +18,26 @@ import mujoco
 import numpy as np
 import pytest
 import rawdata
+from mgdata.skeletons.cabinet import CabinetSkeleton
 from probed import probed_attempt
 
-from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task, check_initial_state
-from mgdata.engine.scenarios import variant
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import AllowedContacts
 from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
+from mgdata.scenarios.conditions import variant
 from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.predicates import Contacts, compile_check
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.spec import EVALUATORS
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.layout_rules import parse_layout
-from skeletons.cabinet import CabinetSkeleton
 
 SLACK = 0.005  # the predicate's default margin
 BAND = 0.002   # m: the model's bounding box and the geoms' may differ by this much

@@ -15,20 +15,20 @@ import dataclasses
 import numpy as np
 import pytest
 import rawdata
+from mgdata.skeletons.clutter import ClutterSkeleton
 from probed import probed_attempt
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.spec import SafetySpec
 from mgdata.tasks.base import draw_task
-from skeletons.clutter import ClutterSkeleton
 
 
 @pytest.fixture(scope="module")

@@ -24,20 +24,20 @@ import mujoco
 import numpy as np
 import pytest
 import rawdata
+from mgdata.skeletons.dusty import DustySkeleton
 from probed import probed_attempt
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
 from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.recipe import Recipe
-from skeletons.dusty import DustySkeleton
 
 TASK = 1
 
@@ -237,8 +237,9 @@ def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> N
     carries it over the low rim)."""
     from types import SimpleNamespace
 
+    from mgdata.skeletons.dusty import _slide_tilt
+
     from mgdata.sim.scene import build_scene
-    from skeletons.dusty import _slide_tilt
 
     scene = build_scene(base_task(recipe, TASK))
     geo = scene.object_model("source").geometry

@@ -32,12 +32,12 @@ import rawdata
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record.episode import MemorySink
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.recipe import family_recipes
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]

@@ -17,8 +17,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from mgdata.skeletons.jar import JarSkeleton
 
-from mgdata.engine import segment as s
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.grasps.db import GraspDB
@@ -30,9 +30,9 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.cameras import WRIST, WRIST_BODY_GEOM
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
+from mgdata.skeleton import segment as s
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
-from skeletons.jar import JarSkeleton
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 

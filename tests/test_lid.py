@@ -25,12 +25,10 @@ import pytest
 import rawdata
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
+from mgdata.skeletons.lid import LidSkeleton
 from probed import probed_attempt
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
@@ -38,11 +36,13 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.predicates import Contacts, compile_check
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.spec import EVALUATORS
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import LayoutRejected
-from skeletons.lid import LidSkeleton
 
 MAX_OFFSET, MAX_GAP, MAX_TILT_DEG = 0.004, 0.003, 8.0  # the documented defaults (docs/predicates.md)
 SETTLE_STEPS = 150  # 0.3 s of physics after dropping the lid

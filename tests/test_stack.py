@@ -12,15 +12,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from mgdata.skeletons.stack import StackSkeleton
 from probed import probed_attempt
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.pick_and_carry import PickAndCarry
-from mgdata.engine.skeleton import load_family_recipe
-from mgdata.engine.variation import draw_variation
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
@@ -28,9 +24,13 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PickAndCarry
+from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeleton.variation import draw_variation
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import DROP, place
-from skeletons.stack import StackSkeleton
 
 STACK = ("stack_0", "stack_1", "stack_2")
 

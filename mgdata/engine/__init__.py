@@ -1,1 +1,2 @@
-"""mgdata.engine"""
+"""Attempt execution: the executor (plan → execute → gate → record), guarded moves and the initial-state
+gate."""

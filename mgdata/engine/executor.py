@@ -9,7 +9,7 @@ the *holding* steps. The attempt ends
 
 * as **kept** once success (the goal predicate ∧ the goal's objects at rest, the recorded success column)
   has held on ``hold_steps`` consecutive holding steps, with no violation at any step
-  (:mod:`mgdata.engine.gate`); the episode then ends with that hold;
+  (:mod:`mgdata.episode.gate`); the episode then ends with that hold;
 * as ``unsafe`` at the first step the monitor reports a violation (before engagement too);
 * as ``timeout`` at the family's step horizon, or with the failure stage of a planning step, a runtime target
   or ``goal_not_reached``.
@@ -28,15 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mgdata.engine.context import Context
-from mgdata.engine.gate import AttemptFailed, SuccessGate
 from mgdata.engine.guarded import GuardedMove
-from mgdata.engine.runner import EpisodeRunner
-from mgdata.engine.segment import MotionSegment
-from mgdata.engine.skeleton import FamilySkeleton, skeleton_for
-from mgdata.engine.success import SuccessCheck
-from mgdata.engine.timing import Timings
-from mgdata.engine.variation import draw_variation
+from mgdata.episode.gate import AttemptFailed, SuccessGate
+from mgdata.episode.runner import EpisodeRunner
+from mgdata.episode.success import SuccessCheck
+from mgdata.episode.timing import Timings
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import (
@@ -54,13 +50,17 @@ from mgdata.record.physics import state_size
 from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
+from mgdata.sim.physics_config import Physics
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.sim.world import Physics
+from mgdata.sim.taskspec import TaskSpec
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.segment import MotionSegment
+from mgdata.skeleton.skeleton import FamilySkeleton, skeleton_for
+from mgdata.skeleton.variation import draw_variation
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import Recipe
-from mgdata.tasks.taskspec import TaskSpec
 
 _MOTION_STAGES = {"start_invalid": "plan_fail"}
 

@@ -33,10 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.engine.context import Context
-from mgdata.engine.gate import RestCheck
-from mgdata.engine.skeleton import skeleton_for
-from mgdata.engine.variation import draw_variation
+from mgdata.episode.gate import RestCheck
 from mgdata.errors import RecipeError
 from mgdata.grasps.db import GraspDB
 from mgdata.ltl.monitor import Monitor
@@ -45,18 +42,13 @@ from mgdata.motion.config import load_motion_config
 from mgdata.paths import grasps_dir
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import TaskSpec
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import Infeasible, skeleton_for
+from mgdata.skeleton.variation import draw_variation
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import Recipe
-from mgdata.tasks.taskspec import TaskSpec
-
-
-class Infeasible(Exception):
-    """The drawn task fails the gate: ``rule`` names what (``"init.at_rest"``, ``"reach.grasps"`` …)."""
-
-    def __init__(self, rule: str, why: str) -> None:
-        super().__init__(f"{rule}: {why}")
-        self.rule, self.why = rule, why
 
 
 def check_initial_state(task: TaskSpec, recipe: Recipe, grasps: GraspDB) -> dict[str, Any]:

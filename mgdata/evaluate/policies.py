@@ -124,7 +124,7 @@ class ReplayPolicy:
             self._matched = self._match(Path(scenarios))
 
     def _match(self, scenarios: Path) -> dict[str, _Episode]:
-        from mgdata.engine.scenarios import STATE, read_manifest
+        from mgdata.scenarios.store import STATE, read_manifest
 
         matched = {}
         for entry in read_manifest(scenarios):

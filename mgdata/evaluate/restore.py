@@ -1,7 +1,7 @@
 """A stored scenario as a live :class:`~mgdata.sim.scene.Scene`, in its frozen initial state, bit for bit.
 
-The model is the scenario's own compiled MJB (``mgdata.engine.scenarios.load_scenario``, hashes checked),
-never a rebuild; the :class:`~mgdata.tasks.taskspec.TaskSpec` the labeller, monitor and success check need
+The model is the scenario's own compiled MJB (``mgdata.scenarios.store.load_scenario``, hashes checked),
+never a rebuild; the :class:`~mgdata.sim.taskspec.TaskSpec` the labeller, monitor and success check need
 is read back from ``scenario.json`` (objects as placed, the stored safety spec, goal, articulation, tint,
 room). The state is ``state.npy`` (as ``load_scenario`` sets it). The family recipe supplies what a
 scenario does not store: the success predicate, ``hold_steps`` and the rest thresholds.
@@ -21,15 +21,15 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.engine.scenarios import load_scenario
 from mgdata.errors import DatasetError, RecipeError
 from mgdata.record.physics import physics_state, set_physics_state
+from mgdata.scenarios.store import load_scenario
 from mgdata.sim.assets import get_model
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.scene import Scene
+from mgdata.sim.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 from mgdata.spec import SafetySpec, spec_from_mapping
 from mgdata.tasks.recipe import Recipe
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 
 
 @dataclass
@@ -83,7 +83,7 @@ def restore_scenario(folder: Path, recipe: Recipe | None = None) -> RestoredScen
         DatasetError: a file is missing or its hash differs; the metadata cannot be read.
         RecipeError: the scenario's physics timestep differs from ``recipes/sim.toml`` (other settings).
     """
-    from mgdata.engine.skeleton import load_family_recipe
+    from mgdata.skeleton.skeleton import load_family_recipe
 
     folder = Path(folder)
     try:

@@ -3,7 +3,7 @@
 The loop (20 Hz, the dataset's rate): restore the scenario bit for bit; at step ``t`` with no actions left,
 render the cameras and query the policy with the observation (:mod:`mgdata.evaluate.conventions`); execute
 the first ``chunk_steps`` actions of the reply, each through
-:class:`~mgdata.engine.runner.EpisodeRunner` (the executor's and teleop's step: controller → labeller →
+:class:`~mgdata.episode.runner.EpisodeRunner` (the executor's and teleop's step: controller → labeller →
 monitor → engagement → success column → gate). Every step is labelled and monitored; a violation does not
 end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
 
@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.engine.gate import SuccessGate
-from mgdata.engine.runner import EpisodeRunner
-from mgdata.engine.success import SuccessCheck
+from mgdata.episode.gate import SuccessGate
+from mgdata.episode.runner import EpisodeRunner
+from mgdata.episode.success import SuccessCheck
 from mgdata.errors import SimulationError
 from mgdata.evaluate.client import PolicyClient, PolicyTimeout
 from mgdata.evaluate.conventions import Observation, check_cameras, decode_actions, default_cameras, encode

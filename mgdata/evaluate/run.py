@@ -30,11 +30,11 @@ from pathlib import Path
 from typing import Any
 
 from mgdata.atomic import write_text_atomic
-from mgdata.engine.pool_worker import die_with_parent
-from mgdata.engine.scenarios import read_manifest
 from mgdata.errors import DatasetError, OutputError
 from mgdata.evaluate.client import PolicyClient
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, run_rollout
+from mgdata.pool_worker import die_with_parent
+from mgdata.scenarios.store import read_manifest
 
 RESULTS = "rollouts.jsonl"
 SETTINGS = "eval.json"

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.engine.preview import safety_panel
+from mgdata.generate.preview import safety_panel
 from mgdata.record.episode import Frame
 from mgdata.record.video import VideoEncoder, VideoSettings
 from mgdata.sim.scene import Scene

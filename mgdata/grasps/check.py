@@ -33,11 +33,12 @@ from mgdata.grasps.db import Grasp
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
+from mgdata.sim.config import default_image_size
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement, TaskSpec
 from mgdata.sim.world import TABLE_TOP_Z
 from mgdata.spec import SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,7 @@ def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
     pos, yaw = check_placement(grasp, cfg, model)
     return TaskSpec(family="grasp_check", task_id=0, condition="base", prompt="", seed=cfg.seed,
                     objects=(ObjectPlacement("object", model, pos, yaw),),
-                    safety=SafetySpec("grasp_check", (), ()))
+                    safety=SafetySpec("grasp_check", (), ()), image_size=default_image_size())
 
 
 def _run(ctl: JointController, q_from: np.ndarray, traj: np.ndarray, grip: float) -> np.ndarray:

@@ -10,9 +10,10 @@ from typing import Annotated
 import typer
 
 from mgdata.errors import DatasetError
+from mgdata.record.export import export_dataset
 from mgdata.record.summary import format_summary, summarize
 from mgdata.record.validate import validate_dataset
-from mgdata.record.views import FORMATS, export_dataset
+from mgdata.record.views import FORMATS
 
 Dataset = Annotated[Path, typer.Argument(help="Dataset folder (LeRobot v3.0 written by mgdata).")]
 

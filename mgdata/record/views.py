@@ -20,7 +20,6 @@ must not see simulator state.
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -103,32 +102,6 @@ def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wr
                            f"({', '.join(schema.cameras)})")
     return ViewSpec("v2.1", {c: layout.video_key(c) for c in chosen}, modality=fmt == "groot",
                     physics=fmt == "v2.1")
-
-
-def export_dataset(root: Path, out: Path, fmt: str, *, overview: str | None = None, wrist: str | None = None,
-                   cameras: tuple[str, ...] | None = None) -> Path:
-    """Write the ``fmt`` view of the dataset at ``root`` into ``out`` (which must not exist); returns ``out``.
-
-    The export is built in ``<out>.partial`` and renamed into place when complete.
-    """
-    from mgdata.record.export_v21 import write_v21
-
-    out = Path(out)
-    if out.exists():
-        raise DatasetError(f"{out}: already exists; choose a new output folder")
-    reader = DatasetReader(Path(root))
-    if not reader.num_episodes:
-        raise DatasetError(f"{root}: the dataset has no episodes to export")
-    view = view_for(fmt, reader.schema, overview=overview, wrist=wrist, cameras=cameras)
-    partial = out.with_name(out.name + ".partial")
-    shutil.rmtree(partial, ignore_errors=True)
-    partial.mkdir(parents=True)
-    if view.version == "v3.0":
-        write_v30_view(reader, partial, view)
-    else:
-        write_v21(reader, partial, view)
-    os.replace(partial, out)
-    return out
 
 
 def renamed_features(reader: DatasetReader, view: ViewSpec) -> dict:

@@ -1,8 +1,8 @@
 """SimConfig: Layer 1's tunables, loaded from ``recipes/sim.toml``.
 
-Three tables, each read into the dataclass that uses it: ``[physics]`` → :class:`~mgdata.sim.world.Physics`
-(rates, integrator, solver, friction cone, liquid solver), ``[gripper]`` →
-:class:`~mgdata.sim.robot.GripperConfig` (servo retuning, finger contact model) and ``[cameras]`` →
+Three tables, each read into the dataclass that uses it: ``[physics]`` →
+:class:`~mgdata.sim.physics_config.Physics` (rates, integrator, solver, friction cone, liquid solver),
+``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model) and ``[cameras]`` →
 :class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size). Every key is
 optional (the dataclass default applies); an unknown table or key, a value of the wrong type or a value out
 of range is one :class:`~mgdata.errors.RecipeError` naming the file and the key.
@@ -23,9 +23,9 @@ from typing import Any
 from mgdata.paths import recipes_dir
 from mgdata.settings import load_settings, settings_from_dict
 from mgdata.sim.cameras import CameraLayout
+from mgdata.sim.gripper import GripperConfig
+from mgdata.sim.physics_config import Physics
 from mgdata.sim.render_config import RenderConfig
-from mgdata.sim.robot import GripperConfig
-from mgdata.sim.world import Physics
 
 SIM_TOML = "sim.toml"
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from mgdata.errors import SceneError
 from mgdata.sim.assets import ObjectModel
-from mgdata.tasks.taskspec import TaskSpec
+from mgdata.sim.taskspec import TaskSpec
 
 PARK_Z = -10.0
 """Height (m) where wiped dust specks are parked (far below the floor, out of every camera's view)."""

@@ -22,7 +22,8 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   finger pads have a contact patch that resists that torque; the finger geoms get ``condim = 4`` with a
   torsional friction coefficient (``finger_condim``, ``finger_torsional_friction``) to model it. (The
   elliptic friction cone that stops a held jar creeping out of the fingers is a world option:
-  ``mgdata.sim.world.Physics``.) Every scene built on this model (generator, grasp check, teleop) gets it;
+  ``mgdata.sim.physics_config.Physics``.) Every scene built on this model (generator, grasp check, teleop) gets
+  it;
 * stiff finger pads: MuJoCo's default soft contact (``solref`` 0.02 s) let the 22 N squeeze sink the pads up
   to 4 mm into a jar wall 3–4 mm thick, and a grasped jar crept down in the fingers. ``finger_solref``
   (0.005 s, critically damped) with ``finger_solmix`` (100: the pads' ``solref`` dominates the mix with any
@@ -44,13 +45,13 @@ Example::
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from mgdata.errors import RecipeError, RobotModelError
+from mgdata.errors import RobotModelError
+from mgdata.sim.gripper import GripperConfig
 from mgdata.sim.meshcache import decimated_mesh
 
 ARM_JOINTS: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
@@ -86,69 +87,6 @@ FAR_LOD_GROUP = 5
 """Geom group of the Panda's far level of detail (hidden by default; far cameras show it instead)."""
 
 _ENV = "MGDATA_PANDA_XML"
-
-
-@dataclass(frozen=True)
-class GripperConfig:
-    """The gripper servo's retuning and the finger pads' contact model (``recipes/sim.toml`` ``[gripper]``).
-
-    Attributes:
-        open_ctrl: actuator control for "open": a target beyond fully open (the fingers stop at their 0.04 m
-            limits), so opening takes ~0.3 s instead of the stock servo's 1 s time constant.
-        closed_ctrl: actuator control for "closed": a target beyond closed that squeezes ~20 N.
-        ctrl_range: the gripper actuator's control range; holds both commands.
-        damping: velocity gain of the servo's bias (``biasprm[2] = -damping``).
-        finger_condim: contact dimension of the finger geoms: 3 sliding friction only, 4 adds torsional
-            friction (6 rolling too).
-        finger_torsional_friction: torsional friction coefficient of the finger pads (m).
-        finger_solref: contact ``solref`` of the finger geoms (time constant s, damping ratio); the time
-            constant must be at least two physics timesteps.
-        finger_solmix: ``solmix`` weight of the finger geoms: a contact takes
-            ``solmix / (solmix + other's solmix)`` of its ``solref`` from the fingers.
-    """
-
-    open_ctrl: float = 0.25
-    closed_ctrl: float = -0.4
-    ctrl_range: tuple[float, float] = (-1.0, 1.0)
-    damping: float = 100.0
-    finger_condim: int = 4
-    finger_torsional_friction: float = 0.02
-    finger_solref: tuple[float, float] = (0.005, 1.0)
-    finger_solmix: float = 100.0
-
-    def __post_init__(self) -> None:
-        lo, hi = self.ctrl_range
-        if not lo < hi:
-            raise RecipeError(f"[gripper] ctrl_range = {list(self.ctrl_range)}: expected [low, high] with "
-                              "low < high")
-        for key in ("open_ctrl", "closed_ctrl"):
-            if not lo <= getattr(self, key) <= hi:
-                raise RecipeError(f"[gripper] {key} = {getattr(self, key)!r}: expected a value in ctrl_range "
-                                  f"[{lo}, {hi}]")
-        if not self.closed_ctrl < self.open_ctrl:
-            raise RecipeError(f"[gripper] closed_ctrl = {self.closed_ctrl!r}: expected less than open_ctrl "
-                              f"= {self.open_ctrl!r} (a lower control closes the fingers)")
-        if self.damping < 0:
-            raise RecipeError(f"[gripper] damping = {self.damping!r}: expected a number >= 0")
-        if self.finger_condim not in (3, 4, 6):
-            raise RecipeError(f"[gripper] finger_condim = {self.finger_condim!r}: expected 3, 4 or 6")
-        if self.finger_torsional_friction < 0:
-            raise RecipeError(f"[gripper] finger_torsional_friction = {self.finger_torsional_friction!r}: "
-                              "expected a number >= 0")
-        if not (self.finger_solref[0] > 0 and self.finger_solref[1] > 0):
-            raise RecipeError(f"[gripper] finger_solref = {list(self.finger_solref)}: expected [time "
-                              "constant s, damping ratio], both > 0")
-        if not self.finger_solmix > 0:
-            raise RecipeError(f"[gripper] finger_solmix = {self.finger_solmix!r}: expected a number > 0")
-
-    def ctrl(self, command: float) -> float:
-        """Map a gripper command (0 open … 1 closed, clipped) to the gripper actuator's control value."""
-        c = min(max(float(command), 0.0), 1.0)
-        return self.open_ctrl + c * (self.closed_ctrl - self.open_ctrl)
-
-    def is_closed(self, ctrl: float) -> bool:
-        """Whether an actuator control value is nearer "closed" than "open"."""
-        return ctrl < (self.open_ctrl + self.closed_ctrl) / 2.0
 
 
 def panda_xml_path() -> Path:

@@ -27,8 +27,9 @@ from mgdata.sim import robot
 from mgdata.sim.assets import ObjectModel
 from mgdata.sim.config import SimConfig, load_sim_config
 from mgdata.sim.particles import WIPER_CATEGORY, DustField, LiquidSet, dust_host
-from mgdata.sim.world import FLOOR_Z, Physics, assemble_spec
-from mgdata.tasks.taskspec import TaskSpec
+from mgdata.sim.physics_config import Physics
+from mgdata.sim.taskspec import TaskSpec
+from mgdata.sim.world import FLOOR_Z, assemble_spec
 
 PENETRATION_TOL = 0.002
 """Initial poses may touch but not interpenetrate by more than this (m)."""

@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from mgdata.errors import RecipeError
+from mgdata.sim.taskspec import TaskSpec
 from mgdata.tasks.placer import place
 from mgdata.tasks.recipe import Recipe
-from mgdata.tasks.taskspec import TaskSpec
 
 
 def draw_task(recipe: Recipe, task_id: int, draw: int = 0) -> TaskSpec:

@@ -26,9 +26,9 @@ import numpy as np
 from mgdata.errors import RecipeError
 from mgdata.sim.assets import get_model, model_names
 from mgdata.sim.particles import fill_top
+from mgdata.sim.taskspec import GoalRegion, ObjectPlacement
 from mgdata.sim.world import TABLE_TOP_Z
 from mgdata.tasks.layout_rules import Layout, Role
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
 
 DROP = 0.001
 """m above its support an object is placed (it settles onto it)."""

@@ -21,7 +21,7 @@ Top-level keys and tables::
 
 ``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
 (:class:`mgdata.tasks.recipe_keys.RecipeKeys`); :func:`check_recipe_keys` checks them (names, types, ranges)
-and gives typed values. The engine loads recipes through ``mgdata.engine.skeleton.load_family_recipe``,
+and gives typed values. The engine loads recipes through ``mgdata.skeleton.skeleton.load_family_recipe``,
 which does both.
 
 Example::
@@ -43,7 +43,7 @@ from types import MappingProxyType
 from typing import Any
 
 from mgdata.errors import RecipeError, UnknownFamilyError
-from mgdata.paths import recipes_dir
+from mgdata.paths import recipe_dirs, recipes_dir
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
 from mgdata.tasks.layout_rules import Layout, parse_layout
 from mgdata.tasks.ood import OodSettings, parse_ood
@@ -52,12 +52,6 @@ from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
 MAX_IMAGE_SIZE = 2048
 """Largest camera image side (pixels) a recipe may ask for (an offscreen framebuffer per worker)."""
-
-
-def _default_image_size() -> int:
-    from mgdata.sim.config import default_image_size  # imports mujoco: only when a recipe sets no size
-
-    return default_image_size()
 
 
 @dataclass(frozen=True)
@@ -74,7 +68,7 @@ class TaskSettings:
     max_draws: int = 20  # the initial-state gate draws a task at most this many times before giving up
     min_grasps: int = 2  # … and accepts it when at least this many target grasps are reachable
     cameras: tuple[str, ...] = CAMERAS
-    image_size: int = field(default_factory=_default_image_size)  # recipes/sim.toml [cameras] image_size
+    image_size: int = field(kw_only=True)  # the recipe's, else recipes/sim.toml [cameras] image_size
 
 
 @dataclass(frozen=True)
@@ -111,20 +105,22 @@ class Recipe:
 
 
 def recipe_path(family: str) -> Path:
-    """``recipes/<family>.toml``, or :class:`UnknownFamilyError` listing the recipes that exist."""
+    """``recipes/<family>.toml`` (or a plugin's, :func:`mgdata.paths.recipe_dirs`), or
+    :class:`UnknownFamilyError` listing the recipes that exist."""
+    for folder in recipe_dirs():
+        if (folder / f"{family}.toml").is_file():
+            return folder / f"{family}.toml"
     path = recipes_dir() / f"{family}.toml"
-    if not path.is_file():
-        known = ", ".join(family_recipes()) or "none"
-        raise UnknownFamilyError(f"no recipe for family {family!r} at {path} (family recipes: {known})")
-    return path
+    known = ", ".join(family_recipes()) or "none"
+    raise UnknownFamilyError(f"no recipe for family {family!r} at {path} (family recipes: {known})")
 
 
 def family_recipes() -> tuple[str, ...]:
     """The families with a recipe in ``recipes/`` (files with a ``family`` key; not sim, motion, grasps)."""
-    found = []
-    for path in sorted(recipes_dir().glob("*.toml")):
+    found: list[str] = []
+    for path in (p for folder in recipe_dirs() for p in sorted(folder.glob("*.toml"))):
         try:
-            if "family" in tomllib.loads(path.read_text(encoding="utf-8")):
+            if path.stem not in found and "family" in tomllib.loads(path.read_text(encoding="utf-8")):
                 found.append(path.stem)
         except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
             continue
@@ -225,6 +221,10 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
     if bad or not cameras or len(set(cameras)) != len(cameras):
         raise RecipeError(f"{where} cameras = {raw_cameras!r}: expected a non-empty subset of "
                           f"{list(CAMERAS)}")
+    if "image_size" not in ints:
+        from mgdata.sim.config import default_image_size  # imports mujoco: only when a recipe sets no size
+
+        ints["image_size"] = default_image_size()
     return TaskSettings(cameras=cameras, **ints, **rest)
 
 

@@ -6,7 +6,7 @@ of a gated base task and nothing else, deterministically per task.
 * :func:`language_variant`: the recipe's swaps applied literally to the prompt template's text (never to the
   role names filled into it); a guard word may not appear more often than in the base prompt.
 * :func:`location_proposal`: attempt ``a`` of the displacement (grouping, magnitude, clamp to the table);
-  the engine gates each proposal and resamples (``mgdata.engine.scenarios``).
+  the engine gates each proposal and resamples (``mgdata.scenarios.store``).
 * :func:`environment_variant`: the same task inside a room style drawn per task (``mgdata.sim.rooms``).
 
 Each returns the new TaskSpec and its provenance (a JSON-ready dict saying what changed).
@@ -25,12 +25,12 @@ import numpy as np
 
 from mgdata.errors import RecipeError
 from mgdata.sim.assets import get_model
+from mgdata.sim.taskspec import GoalRegion, TaskSpec
 from mgdata.sim.world import TABLE_X, TABLE_Y
 from mgdata.spec import SafetySpec, prompt_suffix
 from mgdata.tasks.ood import MIN_COLOUR_DISTANCE, PALETTE, OodSettings, default_ood
 from mgdata.tasks.placer import LayoutRejected, footprint_radius
 from mgdata.tasks.recipe import Recipe
-from mgdata.tasks.taskspec import GoalRegion, TaskSpec
 
 CONDITIONS: tuple[str, ...] = ("base", "target", "language", "location", "environment")
 PROMPT_FORMS: tuple[str, ...] = ("none", "nl", "ltl")

@@ -19,10 +19,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-
-from teleop.emulator.bus import Corruption, EmulatedBus
-from teleop.emulator.script import JointScript
-from teleop.emulator.servo import STS3215, XL330, ControlTable, EmulatedServo
+from mgdata.teleop.emulator.bus import Corruption, EmulatedBus
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.emulator.servo import STS3215, XL330, ControlTable, EmulatedServo
 
 TICKS = 4096
 

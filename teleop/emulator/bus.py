@@ -25,10 +25,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from teleop.emulator import dynamixel, feetech
-from teleop.emulator.packet import Instruction
-from teleop.emulator.servo import EmulatedServo
+from mgdata.teleop.emulator import dynamixel, feetech
+from mgdata.teleop.emulator.packet import Instruction
+from mgdata.teleop.emulator.servo import EmulatedServo
 
 
 @dataclass(frozen=True)

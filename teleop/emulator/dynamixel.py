@@ -8,7 +8,7 @@ followed by an error byte.
 
 from __future__ import annotations
 
-from teleop.emulator.packet import Instruction
+from mgdata.teleop.emulator.packet import Instruction
 
 HEADER = b"\xff\xff\xfd\x00"
 BROADCAST = 0xFE

@@ -7,7 +7,7 @@ instruction's place. STS servos store multi-byte values little-endian.
 
 from __future__ import annotations
 
-from teleop.emulator.packet import Instruction
+from mgdata.teleop.emulator.packet import Instruction
 
 HEADER = b"\xff\xff"
 BROADCAST = 0xFE

@@ -9,12 +9,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-
-from teleop.bus import ServoBus
-from teleop.emulator.arms import ManualClock
-from teleop.emulator.script import JointScript
-from teleop.gello import GelloCalibration, GelloCalibrator
-from teleop.so101.calibration import SO101Calibration, SO101Calibrator
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ManualClock
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.gello import GelloCalibration, GelloCalibrator
+from mgdata.teleop.so101.calibration import SO101Calibration, SO101Calibrator
 
 MOVE = 0.5  # rad a joint is moved to identify it
 

@@ -20,7 +20,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from teleop.emulator.script import JointScript
+from mgdata.teleop.emulator.script import JointScript
 
 TICKS_PER_TURN = 4096
 

@@ -8,10 +8,9 @@ from pathlib import Path
 
 import pytest
 from annotator_helpers import START, chromium_path, free_port
-
-from mgdata.annotate.app import Annotator
-from mgdata.annotate.catalog import Catalog
-from mgdata.annotate.store import GraspStore
+from mgdata.annotator.app import Annotator
+from mgdata.annotator.catalog import Catalog
+from mgdata.annotator.store import GraspStore
 
 
 @pytest.fixture(scope="module")

@@ -13,11 +13,11 @@ import time
 from pathlib import Path
 
 from annotator_helpers import project
+from mgdata.annotator.app import Annotator
+from mgdata.annotator.catalog import Catalog
+from mgdata.annotator.store import GraspStore
 from playwright.sync_api import sync_playwright
 
-from mgdata.annotate.app import Annotator
-from mgdata.annotate.catalog import Catalog
-from mgdata.annotate.store import GraspStore
 from mgdata.sim.assets import get_model
 
 VIEWPORT = (1280, 940)

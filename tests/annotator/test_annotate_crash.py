@@ -20,7 +20,8 @@ import sys
 import time
 from pathlib import Path
 
-from mgdata.annotate.store import GraspStore
+from mgdata.annotator.store import GraspStore
+
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 
@@ -28,7 +29,7 @@ KEY = "jar/hinged_05"
 CHILD = f"""
 import os, sys, time
 from pathlib import Path
-from mgdata.annotate.store import GraspStore
+from mgdata.annotator.store import GraspStore
 real_fsync = os.fsync
 def announcing_fsync(fd):
     real_fsync(fd)

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mgdata.annotator.catalog import Catalog
+from mgdata.annotator.config import load_annotate_config
+from mgdata.annotator.live import LiveChecker
+from mgdata.annotator.objectscene import ObjectScene
+from mgdata.annotator.placements import recipe_placements
+from mgdata.annotator.store import GraspStore
+from mgdata.annotator.worker import LatestWorker
 from typer.testing import CliRunner
 
-from mgdata.annotate.catalog import Catalog
-from mgdata.annotate.config import load_annotate_config
-from mgdata.annotate.live import LiveChecker
-from mgdata.annotate.objectscene import ObjectScene
-from mgdata.annotate.placements import recipe_placements
-from mgdata.annotate.store import GraspStore
-from mgdata.annotate.worker import LatestWorker
 from mgdata.errors import AssetError
 from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import Grasp, GraspDB, approach_hint, write_file
@@ -189,7 +189,7 @@ def test_a_stale_check_gives_up(jar_checker: LiveChecker) -> None:
 
 # ----------------------------------------------------------------------------------------------- export
 def test_export_writes_transforms_and_success_flags(tmp_path) -> None:
-    from mgdata.annotate.export import export_grasps
+    from mgdata.annotator.export import export_grasps
 
     w, x, y, z = 0.5, 0.5, 0.5, 0.5  # 120° about (1, 1, 1): x -> y -> z -> x
     ok = Grasp("a", (0.01, 0.02, 0.03), (w, x, y, z), "side", "annotated", "valid")

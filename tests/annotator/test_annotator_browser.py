@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 from annotator_helpers import START, free_port, project, wait_for
+from mgdata.annotator.app import Annotator
+from mgdata.annotator.catalog import Catalog
+from mgdata.annotator.store import GraspStore
 
-from mgdata.annotate.app import Annotator
-from mgdata.annotate.catalog import Catalog
-from mgdata.annotate.store import GraspStore
 from mgdata.grasps.db import GraspDB
 from mgdata.sim.assets import get_model
 

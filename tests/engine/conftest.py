@@ -9,13 +9,13 @@ from typing import ClassVar
 
 import pytest
 
-from mgdata.engine.context import Context
-from mgdata.engine.segment import MotionSegment
-from mgdata.engine.skeleton import FamilySkeleton, register
+from mgdata.sim.taskspec import ObjectPlacement, TaskSpec
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.segment import MotionSegment
+from mgdata.skeleton.skeleton import FamilySkeleton, register
 from mgdata.spec import Proposition, SafetySpec, family_spec
 from mgdata.tasks.layout_rules import Layout
 from mgdata.tasks.recipe import Recipe, TaskSettings
-from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 
 
 @register

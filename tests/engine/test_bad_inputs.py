@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from mgdata.engine.workers import AttemptPool, WorkerConfig
 from mgdata.errors import GraspDBError, WorkerError
+from mgdata.generate.workers import AttemptPool, WorkerConfig
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record.video import VideoSettings
 from mgdata.tasks.recipe import family_recipes

@@ -12,9 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mgdata.engine import chunkstore
-from mgdata.engine.chunkstore import MASK_BITS, MAX_CHUNK, MIN_CHUNK, WINDOW, cut_points, get, put
 from mgdata.errors import DatasetError
+from mgdata.scenarios import chunkstore
+from mgdata.scenarios.chunkstore import MASK_BITS, MAX_CHUNK, MIN_CHUNK, WINDOW, cut_points, get, put
 
 M64 = (1 << 64) - 1
 

@@ -9,19 +9,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mgdata.engine import segment as seg
-from mgdata.engine.gate import STAGES, AttemptFailed, SuccessGate, keep
-from mgdata.engine.resume import DrawCursor, RunState
-from mgdata.engine.skeleton import (
+from mgdata.episode.gate import STAGES, AttemptFailed, SuccessGate, keep
+from mgdata.errors import DatasetError, UnknownFamilyError
+from mgdata.generate.resume import DrawCursor, RunState
+from mgdata.motion.types import Pose
+from mgdata.skeleton import segment as seg
+from mgdata.skeleton.skeleton import (
     FamilySkeleton,
     available_families,
     available_skeletons,
     register,
     skeleton_for,
 )
-from mgdata.engine.variation import attempt_seed, draw_variation
-from mgdata.errors import DatasetError, UnknownFamilyError
-from mgdata.motion.types import Pose
+from mgdata.skeleton.variation import attempt_seed, draw_variation
 
 KNOBS = {"standoff_m": (0.08, 0.12), "lift_m": (0.10, 0.20)}
 

@@ -7,14 +7,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from mgdata.engine import segment as s
 from mgdata.engine.executor import Executor
-from mgdata.engine.gate import RestCheck
+from mgdata.episode.gate import RestCheck
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.record.episode import MemorySink
+from mgdata.sim.taskspec import ObjectPlacement
+from mgdata.skeleton import segment as s
 from mgdata.spec import Constraint, Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])

@@ -13,14 +13,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.record.episode import MemorySink
 from mgdata.sim.assets import get_model
-from mgdata.tasks.taskspec import ObjectPlacement
+from mgdata.sim.taskspec import ObjectPlacement
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
 from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
 from tests.engine.test_segments import DOWN, NEVER
 

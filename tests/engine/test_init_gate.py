@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 
 from mgdata.engine.init_gate import Infeasible, base_task, cached_grasp_db, check_initial_state
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import RecipeError
 from mgdata.paths import grasps_dir
 from mgdata.sim.scene import build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.world import FLOOR_Z
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.placer import LayoutRejected
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 @pytest.fixture(scope="module")

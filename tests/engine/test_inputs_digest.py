@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from mgdata.engine.executor import control_rate
-from mgdata.engine.generate import inputs_digest
+from mgdata.engine.inputs import inputs_digest
 from mgdata.errors import RecipeError
 from mgdata.motion import load_motion_config
 from mgdata.paths import grasps_dir, recipes_dir

@@ -6,19 +6,19 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from mgdata.skeletons.clutter import ClutterSkeleton
 
-from mgdata.engine import segment as s
-from mgdata.engine.context import Context
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.pick_and_carry import PickAndCarry
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import Pose
 from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.sim.controller import JointController
-from skeletons.clutter import ClutterSkeleton
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.pick_and_carry import PickAndCarry
+from mgdata.skeleton.skeleton import load_family_recipe
 
 
 class _Track(JointController):

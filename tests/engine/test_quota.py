@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_two_pass import _files, low_yield_recipe
 
-from mgdata.engine.generate import GenerateJob, generate
-from mgdata.engine.resume import DrawCursor
+from mgdata.generate.resume import DrawCursor
+from mgdata.generate.run import GenerateJob, generate
 from mgdata.record.reader import DatasetReader
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]

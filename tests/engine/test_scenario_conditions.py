@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mgdata.engine.generate import GenerateJob, generate
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.scenarios import attempt_condition, variant
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.errors import DatasetError, RecipeError
+from mgdata.generate.run import GenerateJob, generate
 from mgdata.record.physics import model_bytes, physics_state
 from mgdata.record.reader import DatasetReader
+from mgdata.scenarios.conditions import attempt_condition, variant
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import build_scene
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.variants import CONDITIONS
 
 

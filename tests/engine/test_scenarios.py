@@ -20,7 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.scenarios import (
+from mgdata.errors import RecipeError
+from mgdata.scenarios.store import (
     build_scenario,
     load_scenario,
     scenario_dir,
@@ -28,13 +29,12 @@ from mgdata.engine.scenarios import (
     verify,
     write_manifest,
 )
-from mgdata.engine.skeleton import load_family_recipe
-from mgdata.errors import RecipeError
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.rooms import ROOM_NAMES, add_room
 from mgdata.sim.scene import build_scene
 from mgdata.sim.world import TABLE_X, TABLE_Y
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.ood import GUARD, PALETTE
 from mgdata.tasks.placer import LayoutRejected

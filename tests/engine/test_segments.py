@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mgdata.engine import segment as s
 from mgdata.engine.executor import Executor, slowed
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import JointTrajectory, Pose
 from mgdata.record.episode import MemorySink
+from mgdata.sim.taskspec import ObjectPlacement
+from mgdata.skeleton import segment as s
 from mgdata.spec import Proposition
-from mgdata.tasks.taskspec import ObjectPlacement
 from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])  # TCP pointing straight down

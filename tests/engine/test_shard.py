@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from test_two_pass import _files, low_yield_recipe
 
-from mgdata.engine.generate import GenerateJob, failed_path, generate
-from mgdata.engine.merge import merge_shards
 from mgdata.errors import DatasetError
+from mgdata.generate.merge import merge_shards
+from mgdata.generate.run import GenerateJob, failed_path, generate
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mgdata.engine.generate import GenerateJob, failed_path, generate
+from mgdata.generate.run import GenerateJob, failed_path, generate
 from mgdata.paths import recipes_dir
 from mgdata.record.reader import DatasetReader
 

@@ -10,16 +10,16 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from mgdata.skeletons.jar import JarSkeleton
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task, cached_grasp_db
-from mgdata.engine.scenarios import build_scenario, write_manifest
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.evaluate.server import Policy, PolicyServer
 from mgdata.paths import grasps_dir
 from mgdata.record.recorder import schema_for
 from mgdata.record.writer import DatasetWriter
-from skeletons.jar import JarSkeleton
+from mgdata.scenarios.store import build_scenario, write_manifest
+from mgdata.skeleton.skeleton import load_family_recipe
 
 
 class LiftOpenJar(JarSkeleton):

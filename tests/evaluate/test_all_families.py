@@ -11,14 +11,14 @@ import pytest
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task, cached_grasp_db
-from mgdata.engine.scenarios import build_scenario, write_manifest
-from mgdata.engine.skeleton import load_family_recipe
 from mgdata.evaluate.policies import HoldPolicy, ReplayPolicy
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, rollout
 from mgdata.paths import grasps_dir
 from mgdata.record.reader import DatasetReader
 from mgdata.record.recorder import schema_for
 from mgdata.record.writer import DatasetWriter
+from mgdata.scenarios.store import build_scenario, write_manifest
+from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.recipe import family_recipes
 
 pytestmark = pytest.mark.slow

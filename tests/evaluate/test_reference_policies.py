@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mgdata.engine.scenarios import load_scenario
 from mgdata.errors import OutputError, PolicyError
 from mgdata.evaluate.config import RandomConfig
 from mgdata.evaluate.policies import HoldPolicy, RandomPolicy, ReplayPolicy
@@ -20,6 +19,7 @@ from mgdata.evaluate.run import EvalJob, plan, read_results, run_eval
 from mgdata.metrics import compute_metrics, parse_record
 from mgdata.record.physics import set_physics_state
 from mgdata.record.reader import DatasetReader
+from mgdata.scenarios.store import load_scenario
 from mgdata.sim import robot
 
 

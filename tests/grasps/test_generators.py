@@ -12,10 +12,11 @@ from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
 from mgdata.grasps.check import GraspCheckConfig, check_placement
 from mgdata.grasps.db import Grasp
 from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.config import default_image_size
 from mgdata.sim.robot import FINGERTIP_REACH
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement, TaskSpec
 from mgdata.spec import SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement, TaskSpec
 
 COLLIDING_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # group 0 (both) and 3 (collision)
 
@@ -23,7 +24,8 @@ COLLIDING_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # group 0 (both
 def _scene(model: str, grasp: Grasp) -> Scene:
     pos, yaw = check_placement(grasp, GraspCheckConfig(), model)
     task = TaskSpec(family="t", task_id=0, condition="base", prompt="", seed=0,
-                    objects=(ObjectPlacement("object", model, pos, yaw),), safety=SafetySpec("t", (), ()))
+                    objects=(ObjectPlacement("object", model, pos, yaw),), safety=SafetySpec("t", (), ()),
+                    image_size=default_image_size())
     return build_scene(task)
 
 

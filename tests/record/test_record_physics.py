@@ -226,7 +226,7 @@ def test_an_episode_with_physics_states_needs_its_scene(tmp_path: Path) -> None:
 
 
 def test_training_views_drop_the_simulator_state_and_v21_keeps_it(recorded: Path, tmp_path: Path) -> None:
-    from mgdata.record.views import export_dataset
+    from mgdata.record.export import export_dataset
 
     smol = export_dataset(recorded, tmp_path / "smol", "smolvla", overview="front")
     report = validate_dataset(smol)

@@ -11,10 +11,10 @@ import pytest
 from conftest import LENGTHS, small_episodes
 
 from mgdata.errors import DatasetError
+from mgdata.record.export import export_dataset
 from mgdata.record.reader import DatasetReader
 from mgdata.record.validate import validate_dataset
 from mgdata.record.video import decode
-from mgdata.record.views import export_dataset
 
 
 def _jsonl(path: Path) -> list[dict]:

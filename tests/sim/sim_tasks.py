@@ -6,8 +6,9 @@ import numpy as np
 
 import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 from mgdata.sim.assets import get_model
+from mgdata.sim.config import default_image_size
+from mgdata.sim.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 from mgdata.spec import Constraint, Proposition, SafetySpec
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement, TaskSpec
 
 JAR_MODEL = "jar/hinged_03"
 
@@ -48,7 +49,7 @@ def jar_task(
         safety=jar_spec(),
         goal=GoalRegion((0.45, 0.3, 0.15), 0.05),
         articulation={"jar": open_fraction},
-        **kw,  # type: ignore[arg-type]
+        **{"image_size": default_image_size(), **kw},  # type: ignore[arg-type]
     )
 
 
@@ -59,7 +60,7 @@ def empty_spec(name: str = "none") -> SafetySpec:
 def task_with(*objects: ObjectPlacement, spec: SafetySpec | None = None, **kw: object) -> TaskSpec:
     """A task holding just ``objects`` (robot at the origin facing +X)."""
     return TaskSpec(family="test", task_id=0, condition="base", prompt="", objects=objects,
-                    safety=spec or empty_spec(), **kw)  # type: ignore[arg-type]
+                    safety=spec or empty_spec(), **{"image_size": default_image_size(), **kw})  # type: ignore[arg-type]
 
 
 _IK_MODEL = None

@@ -13,8 +13,8 @@ from mgdata.errors import AssetError
 from mgdata.sim.assets import categories, get_model, model_names
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 REQUIRED = {"cup", "mug", "teacup", "bowl", "plate", "box", "bottle", "jar", "food", "container", "lid",
             "tray", "sponge", "board", "cabinet", "liquid", "dust"}

@@ -12,8 +12,8 @@ from sim_tasks import task_with
 
 from mgdata.sim.geometry import FlatTop, GeomGaps, LowestPoint
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.world import FLOOR_Z, TABLE_TOP_Z, TABLE_X, TABLE_Y
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 @pytest.fixture(scope="module")

@@ -20,8 +20,8 @@ from mgdata.sim import robot
 from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 HELD_GAP_TOL = 0.0005  # m: ``held``'s documented default; closer to the table top than this is support
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])

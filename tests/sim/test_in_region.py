@@ -14,8 +14,8 @@ from sim_tasks import task_with
 from mgdata.errors import SpecError
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import GoalRegion, ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec, proposition_from_mapping
-from mgdata.tasks.taskspec import GoalRegion, ObjectPlacement
 
 GOAL = np.array([0.5, 0.2, 0.15])
 RADIUS = 0.05

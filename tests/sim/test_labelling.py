@@ -11,8 +11,8 @@ from mgdata.errors import SpecError
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.predicates import FACTORIES
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import EVALUATORS, Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 def spec_of(*props: Proposition) -> SafetySpec:

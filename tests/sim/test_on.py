@@ -14,8 +14,8 @@ from mgdata.sim import robot
 from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import EVALUATORS, Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 GAP_TOL = next(p.default for p in EVALUATORS["on"].params if p.name == "gap_tol")

@@ -12,8 +12,8 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.particles import PARK_Z
 from mgdata.sim.scene import build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 def test_liquid_fills_its_container_and_stays_in_at_rest() -> None:

@@ -15,8 +15,8 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.engagement import EngagementTracker
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
-from mgdata.tasks.taskspec import ObjectPlacement
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 """TCP rotation pointing straight down, fingers closing along world Y."""

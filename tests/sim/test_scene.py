@@ -13,8 +13,8 @@ from mgdata.errors import AssetError, SceneError
 from mgdata.sim import robot
 from mgdata.sim.cameras import CAMERA_NAMES
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.world import TABLE_TOP_Z
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 def test_naming_contract(jar_scene: Scene) -> None:

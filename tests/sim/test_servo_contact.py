@@ -12,7 +12,7 @@ from mgdata.sim.contact_force import geom_set, pair_contact
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.servo import ArmServo
-from mgdata.tasks.taskspec import ObjectPlacement
+from mgdata.sim.taskspec import ObjectPlacement
 
 
 @pytest.fixture(scope="module")

@@ -19,10 +19,10 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.cameras import CameraLayout
 from mgdata.sim.config import SimConfig, load_sim_config, sim_config_from_dict
 from mgdata.sim.controller import JointController
+from mgdata.sim.physics_config import Physics
 from mgdata.sim.scene import Scene, build_scene
-from mgdata.sim.world import Physics
+from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.tasks.recipe import load_recipe
-from mgdata.tasks.taskspec import ObjectPlacement
 
 
 def _finger_geoms(model: mujoco.MjModel) -> np.ndarray:

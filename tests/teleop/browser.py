@@ -14,17 +14,17 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.emulator.arms import ManualClock
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.gello import GelloCalibration
+from mgdata.teleop.mapping import mapper_for
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.session import SessionJob, TeleopSession
+from mgdata.teleop.view import OperatorView
 
 from mgdata.sim.robot import HOME_Q
-from teleop.bus import ServoBus
-from teleop.config import load_teleop_config
-from teleop.emulator.arms import ManualClock
-from teleop.emulator.script import JointScript
-from teleop.gello import GelloCalibration
-from teleop.mapping import mapper_for
-from teleop.reader import LeaderReader
-from teleop.session import SessionJob, TeleopSession
-from teleop.view import OperatorView
 from tests.teleop.conftest import GELLO_BUILD
 
 

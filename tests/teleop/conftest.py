@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import pytest
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
+from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
+from mgdata.teleop.gello import GelloCalibration, gello_motors
 
 from mgdata.sim.robot import HOME_Q
-from teleop.bus import ServoBus
-from teleop.emulator.arms import ArmBuild, ManualClock
-from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
-from teleop.gello import GelloCalibration, gello_motors
 
 pytest.importorskip("dynamixel_sdk", reason="the teleop extra (dynamixel-sdk) is not installed")
 pytest.importorskip("scservo_sdk", reason="the teleop extra (feetech-servo-sdk) is not installed")
@@ -17,7 +17,7 @@ pytest.importorskip("scservo_sdk", reason="the teleop extra (feetech-servo-sdk) 
 def _patient_replies(monkeypatch: pytest.MonkeyPatch) -> None:
     """The emulated servos answer from a thread of this (often heavily loaded) host, not in microseconds as
     real ones do; a longer reply timeout keeps scheduling delays from looking like lost packets."""
-    monkeypatch.setattr("teleop.bus.DEFAULT_LATENCY_MS", 250.0)
+    monkeypatch.setattr("mgdata.teleop.bus.DEFAULT_LATENCY_MS", 250.0)
 
 
 GELLO_BUILD = ArmBuild.gello(seed=3).near_wrap(3, HOME_Q[3])

@@ -5,13 +5,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from teleop.bus import ServoBus
-from teleop.config import load_teleop_config
-from teleop.emulator.arms import ArmBuild, ManualClock
-from teleop.emulator.script import JointScript
-from teleop.mapping import mapper_for
-from teleop.reader import LeaderReader
-from teleop.session import SessionJob, TeleopSession
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.mapping import mapper_for
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.session import SessionJob, TeleopSession
 
 FAMILY = {"gello": "dynamixel", "so101": "feetech"}
 

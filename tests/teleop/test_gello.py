@@ -12,16 +12,16 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
+from mgdata.teleop.emulator.bus import Corruption
+from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.gello import GelloCalibration, gello_motors
 
 from mgdata.errors import DeviceError, RecipeError
 from mgdata.motion.ik import kinematic_arm_model
 from mgdata.sim.robot import HOME_Q
-from teleop.bus import ServoBus
-from teleop.emulator.arms import ArmBuild, ManualClock
-from teleop.emulator.bus import Corruption
-from teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
-from teleop.emulator.script import JointScript
-from teleop.gello import GelloCalibration, gello_motors
 from tests.teleop.conftest import GELLO_BUILD
 
 TICK = 2 * np.pi / 4096

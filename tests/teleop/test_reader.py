@@ -12,16 +12,16 @@ import time
 
 import numpy as np
 import pytest
+from mgdata.teleop import sdk
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ManualClock
+from mgdata.teleop.emulator.bus import EmulatedBus
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.gello import GelloCalibration
+from mgdata.teleop.reader import LeaderReader
 
 from mgdata.errors import DeviceError, MgdataError
 from mgdata.sim.robot import HOME_Q
-from teleop import sdk
-from teleop.bus import ServoBus
-from teleop.emulator.arms import ManualClock
-from teleop.emulator.bus import EmulatedBus
-from teleop.emulator.script import JointScript
-from teleop.gello import GelloCalibration
-from teleop.reader import LeaderReader
 from tests.teleop.conftest import GELLO_BUILD
 
 

@@ -7,9 +7,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from mgdata.engine.gate import SuccessGate
 from mgdata.engine.init_gate import base_task
-from mgdata.engine.runner import EpisodeRunner
+from mgdata.episode.gate import SuccessGate
+from mgdata.episode.runner import EpisodeRunner
 from mgdata.record.episode import MemorySink
 from mgdata.record.recorder import Recorder
 from mgdata.sim.controller import JointController

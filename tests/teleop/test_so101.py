@@ -7,15 +7,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
+from mgdata.teleop.emulator.bus import Corruption
+from mgdata.teleop.emulator.operator import calibrate_so101, so101_calibration_scripts
+from mgdata.teleop.emulator.script import JointScript
+from mgdata.teleop.so101.calibration import SO101Calibration, so101_motors
+from mgdata.teleop.so101.kinematics import SO101Kinematics
 
 from mgdata.errors import DeviceError, RecipeError
-from teleop.bus import ServoBus
-from teleop.emulator.arms import ArmBuild, ManualClock
-from teleop.emulator.bus import Corruption
-from teleop.emulator.operator import calibrate_so101, so101_calibration_scripts
-from teleop.emulator.script import JointScript
-from teleop.so101.calibration import SO101Calibration, so101_motors
-from teleop.so101.kinematics import SO101Kinematics
 
 TICK = 2 * np.pi / 4096
 FK = SO101Kinematics()

@@ -1,0 +1,144 @@
+"""EpisodeRunner: one control step of any demonstration source: controller → recorder → gate.
+
+Every source of actions (the planner's executor, a teleoperated leader arm, a policy) steps the scene through
+the same code: apply the 8-D action and advance one control period; the recorder emits the frame, labels
+the new state, steps the monitor and the engagement tracker and evaluates the success column (goal ∧ at
+rest, :mod:`mgdata.episode.success`); the :class:`~mgdata.episode.gate.SuccessGate` counts the streak of
+holding steps (the arm commanded still after the motion: the caller says which) on which it holds. The
+runner reports what ended the episode, in the executor's order: a violation (``unsafe``), then the gate
+(``passed``), then the horizon (``timeout``); the caller decides what to do about it (the executor raises,
+teleop shows a banner).
+
+Example::
+
+    runner = EpisodeRunner(scene, recorder, SuccessGate(10), horizon=2000)
+    runner.start()
+    while (out := runner.step(q, grip, holding=motion_done)).end is None:
+        q, grip = next_command()
+    meta = runner.finish(source="gello", seed=0, draw_index=0)   # or runner.discard()
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from mgdata.episode.gate import SuccessGate, keep
+from mgdata.episode.timing import Timings
+from mgdata.ltl import MonitorState, verdict
+from mgdata.record.episode import EpisodeMeta
+from mgdata.record.recorder import Recorder
+from mgdata.sim.controller import JointController
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What one control step produced.
+
+    Attributes:
+        monitor: the monitor state after labelling the new state.
+        success: the success predicate at the new state.
+        engaged: first engagement has happened (latched).
+        end: ``None`` (go on), ``"unsafe"``, ``"passed"`` or ``"timeout"``.
+        reason: a sentence for ``unsafe``/``timeout``.
+    """
+
+    monitor: MonitorState
+    success: bool
+    engaged: bool
+    end: str | None
+    reason: str | None = None
+
+
+class EpisodeRunner:
+    """Steps one episode (see the module docstring).
+
+    Attributes:
+        controller: the joint controller of the scene.
+        recorder: the episode recorder (labeller, monitor, engagement, sink).
+        gate: the success gate.
+        horizon: control steps after which the episode ends as ``timeout``.
+        steps: actions executed so far; ``q_cmd``/``grip``: the last command.
+        timings: optional per-phase seconds (``physics``, ``rendering`` net of ``encoding``).
+        stop_on_violation: end the episode (``unsafe``) at the first violation; evaluation passes False,
+            since a policy's rollout goes on after a violation (it may still succeed: "unsafe success").
+    """
+
+    def __init__(self, controller: JointController, recorder: Recorder, gate: SuccessGate, horizon: int,
+                 timings: Timings | None = None, *, stop_on_violation: bool = True) -> None:
+        self.controller = controller
+        self.stop_on_violation = stop_on_violation
+        self.recorder = recorder
+        self.gate = gate
+        self.horizon = horizon
+        self.timings = timings if timings is not None else Timings()
+        self.steps = 0
+        self.q_cmd = controller.scene.arm_q().copy()
+        self.grip = 0.0
+
+    def start(self) -> MonitorState:
+        """Observe the scene's current state as ``t = 0`` of a new episode."""
+        self.gate.reset()
+        self.steps = 0
+        self.q_cmd = self.controller.scene.arm_q().copy()
+        self.grip = 0.0
+        return self.recorder.start()
+
+    def step(self, q: np.ndarray, grip: float, holding: bool) -> StepOutcome:
+        """Execute the action ``(q, grip)`` for one control period and record it. ``holding``: this is a
+        step after the motion has ended, the arm commanded still (only such steps count towards the gate)."""
+        action = np.empty(8, dtype=np.float32)
+        action[:7] = q
+        action[7] = grip
+        t = self.timings
+        with t.measure("physics"):
+            self.controller.apply(action)
+            self.controller.step()
+        encoding_before = t.encoding
+        with t.measure("rendering"):
+            monitor = self.recorder.record(action)
+        t.rendering -= t.encoding - encoding_before
+        self.q_cmd = np.asarray(q, dtype=np.float64).copy()
+        self.grip = float(grip)
+        self.steps += 1
+        rec = self.recorder
+        success, engaged = rec.success, rec.t_engage is not None
+        if monitor.t_violation is not None and self.stop_on_violation:
+            names = [cid for cid, step in rec.first_violation.items() if step is not None]
+            return StepOutcome(monitor, success, engaged, "unsafe",
+                               f"{', '.join(names)} violated at step {monitor.t_violation}")
+        if self.gate.update(success, holding):
+            return StepOutcome(monitor, success, engaged, "passed")
+        if self.steps >= self.horizon:
+            return StepOutcome(monitor, success, engaged, "timeout",
+                               f"horizon of {self.horizon} control steps reached")
+        return StepOutcome(monitor, success, engaged, None)
+
+    @property
+    def verdict(self) -> bool:
+        """The paper's ν of the episode so far."""
+        return verdict(self.recorder.t_violation, self.recorder.t_engage)
+
+    @property
+    def kept(self) -> bool:
+        """The gate's decision so far: success held at rest for the window, and no violation at any step."""
+        return keep(self.gate.passed, self.recorder.first_violation)
+
+    def finish(self, *, seed: int, draw_index: int, source: str, stage: str | None = None,
+               reason: str | None = None, **meta: Any) -> EpisodeMeta:
+        """Commit the episode to the recorder's sink, labelled kept or with its failure ``stage``."""
+        kept = stage is None and self.kept
+        if not kept and stage is None:
+            stage = "goal_not_reached"
+            reason = reason or (f"goal held for at most {self.gate.streak} consecutive steps "
+                                f"(needs {self.gate.hold_steps})")
+        return self.recorder.finish(seed=seed, draw_index=draw_index, kept=kept, success=self.gate.passed,
+                                    failure_stage=None if kept else stage,
+                                    failure_reason=None if kept else reason,
+                                    source=source, **meta)
+
+    def discard(self) -> None:
+        """Drop the episode in progress."""
+        self.recorder.discard()

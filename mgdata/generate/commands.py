@@ -1,0 +1,212 @@
+"""``mgdata generate`` (demonstrations into a LeRobot dataset) and ``mgdata preview`` (watch some of them)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mgdata.console import plain_console
+from mgdata.errors import DatasetError, OutputError, RecipeError
+from mgdata.paths import datasets_dir
+
+
+def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
+    """``"all"`` -> ``None``; ``"0-3,7"`` -> ``(0, 1, 2, 3, 7)``."""
+    if text.strip() == "all":
+        return None
+    out: list[int] = []
+    try:
+        for part in text.split(","):
+            lo, _, hi = part.strip().partition("-")
+            first, last = int(lo), int(hi or lo)
+            if last < first:
+                raise ValueError(part)
+            out += range(first, last + 1)
+    except ValueError:
+        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7' "
+                          "(each range low-high with low <= high)") from None
+    return tuple(out)
+
+
+def parse_shard(text: str | None) -> tuple[int, int] | None:
+    """``"1/4"`` -> ``(1, 4)``."""
+    if text is None:
+        return None
+    i, sep, n = text.partition("/")
+    try:
+        if not sep:
+            raise ValueError(text)
+        return int(i), int(n)
+    except ValueError:
+        raise RecipeError(f"--shard {text!r}: expected i/N, e.g. 0/4") from None
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("tasks")
+    def tasks_cmd(
+        family: Annotated[str, typer.Argument(help="Task family (a recipe under recipes/).")],
+        tasks: Annotated[str, typer.Option(help="Base tasks: 'all' or e.g. '0-3,7'.")] = "all",
+        render: Annotated[bool, typer.Option(help="Also draw the initial scenes into a contact sheet.")]
+        = False,
+        out: Annotated[Path | None, typer.Option(help="Contact sheet PNG (default: <family>_tasks.png).")]
+        = None,
+    ) -> None:
+        """List a family's base tasks as the initial-state gate accepts them: objects, goal, prompt, reachable
+        grasps; --render draws each task's initial scene from two cameras into one PNG.
+
+        Exit status 2 if a task fails the gate (its row says why).
+
+        Example: mgdata tasks clutter_dry --tasks 0-5 --render --out clutter_tasks.png
+        """
+        from mgdata.generate.task_report import gate_report, write_sheet
+        from mgdata.skeleton.skeleton import load_family_recipe
+
+        recipe = load_family_recipe(family)
+        chosen = parse_ids(tasks) or tuple(range(recipe.tasks.count))
+        bad = [k for k in chosen if not 0 <= k < recipe.tasks.count]
+        if bad:
+            raise RecipeError(f"--tasks: {family} has tasks 0 … {recipe.tasks.count - 1}, not {bad[0]}")
+        sheet = out or Path(f"{family}_tasks.png")
+        if render and (sheet.is_dir() or not sheet.parent.is_dir()):
+            raise OutputError(f"--out {sheet}: expected a file path in an existing folder")
+        console = plain_console()
+        rows = []
+        for row in gate_report(recipe, chosen):
+            console.print(row.line())
+            rows.append(row)
+        failed = [r for r in rows if r.task is None]
+        if render:
+            path = write_sheet([r.task for r in rows if r.task is not None], sheet)
+            console.print(f"wrote {path}")
+        console.print(f"{len(rows) - len(failed)} of {len(rows)} tasks pass the initial-state gate")
+        if failed:
+            raise RecipeError(f"{len(failed)} task(s) fail the initial-state gate: "
+                              f"{', '.join(str(r.task_id) for r in failed)}")
+
+    @app.command()
+    def generate(
+        family: Annotated[str, typer.Option(
+            help="Task family (recipe + skeleton), or 'all': one dataset per family under --out.")] = "jar",
+        n: Annotated[int | None, typer.Option("--n", help="Kept demonstrations wanted in the dataset "
+                                                          "[default: 40].", show_default=False)] = None,
+        per_task: Annotated[int | None, typer.Option(
+            help="Kept demonstrations wanted per base task (instead of --n; the paper's release: 40).")]
+        = None,
+        tasks: Annotated[str, typer.Option(help="Base tasks, round-robin: 'all' or e.g. '0-3,7'.")] = "all",
+        task: Annotated[int | None, typer.Option(help="A single base task (same as --tasks K).")] = None,
+        out: Annotated[Path | None, typer.Option(help="Dataset folder (default: datasets/<family>).")] = None,
+        workers: Annotated[int | None, typer.Option(
+            help="Parallel attempt processes, at least 1 (default: one per CPU core; same output for any "
+                 "count).",
+            show_default=False)] = None,
+        seed: Annotated[int, typer.Option(help="Seed mixed into every attempt's seed.")] = 0,
+        keep_failed: Annotated[bool, typer.Option(help="Also keep failed/unsafe attempts, in <out>_failed.")]
+        = False,
+        max_attempts: Annotated[int | None, typer.Option(help="Attempt budget (4 × missing).")] = None,
+        codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
+        recipe: Annotated[Path | None, typer.Option(help="Use this recipe file.")] = None,
+        shard: Annotated[str | None, typer.Option(
+            help="Generate shard i of N ('i/N', with --per-task): tasks i, i+N, …; join with mgdata merge.")]
+        = None,
+        ray: Annotated[str | None, typer.Option(
+            "--ray", metavar="[ADDRESS]",
+            help="Run the attempts on Ray (the optional ray extra of mgdata): --workers actors on a "
+                 "private local instance, or on the cluster at ADDRESS; nodes that would not reproduce "
+                 "this machine's bytes are refused.")] = None,
+        render_after: Annotated[bool, typer.Option(
+            "--render-after/--render-during",
+            help="Render only the recorded episodes, after the gate, from their physics states (same "
+                 "bytes as rendering every step during execution, faster when attempts fail).")] = True,
+        condition: Annotated[str, typer.Option(
+            help="Generate in a scenario condition: base, target, language, location, environment (or env), "
+                 "or all (a task's draws cycle through the five).")] = "base",
+    ) -> None:
+        """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
+
+        Example: mgdata generate --family jar --n 40 --workers 2
+        """
+        from mgdata.generate.run import GenerateJob
+        from mgdata.generate.run import generate as run
+        from mgdata.generate.suite import ALL, generate_suite, suite_table
+        from mgdata.generate.summary import ProgressView, RunSummary, print_summary
+
+        if n is not None and per_task is not None:
+            raise RecipeError("--n and --per-task exclude each other: give the dataset's total or the "
+                              "per-task quota")
+        job = GenerateJob(family=family, n=40 if n is None else n, out=out or datasets_dir() / family,
+                          tasks=(task,) if task is not None else parse_ids(tasks),
+                          workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
+                          keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
+                          render_after=render_after, per_task=per_task, shard=parse_shard(shard),
+                          ray=ray, condition="environment" if condition == "env" else condition)
+        console = plain_console()
+        if family == ALL:
+            views: list[ProgressView] = []
+
+            def start(fam_job: GenerateJob) -> Callable[[RunSummary], None]:
+                for old in views:
+                    old.__exit__(None)
+                console.print(f"{fam_job.family} -> {fam_job.out}")
+                views.append(ProgressView(RunSummary(out=fam_job.out, target=fam_job.n), console))
+                return views[-1].update
+
+            try:
+                rows = generate_suite(job, on_start=start)
+            finally:
+                for view in views:
+                    view.__exit__(None)
+            console.print(suite_table(rows))
+            if any(s.total_kept < s.target for _, s in rows):
+                raise typer.Exit(1)
+            return
+        with ProgressView(RunSummary(out=job.out, target=job.n), console) as view:
+            summary = run(job, on_attempt=view.update)
+        print_summary(summary, console)
+        if summary.total_kept < summary.target:
+            raise typer.Exit(1)
+
+    @app.command()
+    def preview(
+        dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
+        episodes: Annotated[str, typer.Option(help="Episode indices, e.g. '0-2,5'.")] = "0-2",
+        out: Annotated[Path | None, typer.Option(help="Output mp4 (default: <dataset>/preview.mp4).")] = None,
+    ) -> None:
+        """Render an mp4 of some episodes: every camera in a grid, with the step's safety labels.
+
+        Example: mgdata preview datasets/jar --episodes 0-2 --out jar_preview.mp4
+        """
+        from mgdata.generate.preview import render_preview
+
+        chosen = parse_ids(episodes, "--episodes")
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
+        target = out or dataset / "preview.mp4"
+        if target.is_dir() or not target.parent.is_dir():
+            raise OutputError(f"--out {target}: expected a file path in an existing folder")
+        try:
+            path = render_preview(dataset, chosen, target)
+        except OSError as err:
+            raise OutputError(f"--out {target}: cannot write the preview ({err.strerror or err})") from None
+        plain_console().print(f"wrote {path}")
+
+    @app.command()
+    def merge(
+        shards: Annotated[list[Path], typer.Argument(
+            help="The shard datasets (mgdata generate --shard i/N).")],
+        out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
+    ) -> None:
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte.
+
+        Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        """
+        from mgdata.generate.merge import merge_shards
+
+        for shard in shards:
+            if not shard.is_dir():
+                raise DatasetError(f"{shard}: no such dataset folder")
+        n = merge_shards(list(shards), out)
+        plain_console().print(f"wrote {out} ({n} episodes from {len(shards)} shards)")

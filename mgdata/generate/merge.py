@@ -1,0 +1,142 @@
+"""``mgdata merge SHARD… --out OUT``: join the datasets of ``mgdata generate --shard i/N`` runs into the
+dataset one run over all tasks would have written, byte for byte.
+
+A single run commits attempts in the draw cursor's canonical order, which is ascending (draw index, task)
+(the cursor always takes the task with the smallest next draw, ties by position; ``--shard`` requires the
+tasks in ascending order), and a per-task quota makes the attempts of each task independent of the others.
+So the merge re-stages every shard episode (frames, video packets copied without re-encoding, pixel
+histograms, scene) and appends them sorted by (draw, task) with the ordinary writer, then records the
+summed attempt count and the joined draw cursor. The shards must share the generator identity (family,
+seed, inputs digest), schema and video settings, and no (task, draw) may appear twice. Labelled negatives
+(``<shard>_failed``) are merged into ``<out>_failed`` the same way when every shard has them. The result is
+built in ``<out>.partial`` and renamed when complete.
+
+Example::
+
+    merge_shards([Path("ds/s0"), Path("ds/s1")], Path("ds/jar"))
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from dataclasses import asdict
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from mgdata.errors import DatasetError, OutputError
+from mgdata.generate.resume import RunState
+from mgdata.generate.run import STATE_FILE, failed_path
+from mgdata.record import layout
+from mgdata.record.metadata import meta_to_dict
+from mgdata.record.reader import DatasetReader
+from mgdata.record.staging import EPISODE_JSON, FRAMES_PARQUET, SCENE_MJB, STAGED_FORMAT
+from mgdata.record.video import remux
+from mgdata.record.writer import DatasetWriter
+
+
+def merge_shards(shards: list[Path], out: Path) -> int:
+    """Write the merged dataset (module docstring); returns its episode count."""
+    out = Path(out)
+    if out.exists():
+        raise OutputError(f"--out {out}: already exists; choose a new folder")
+    if len(shards) < 1:
+        raise DatasetError("merge needs at least one shard dataset")
+    readers = [DatasetReader(Path(s)) for s in shards]
+    states = [_state(r) for r in readers]
+    _check_same(readers, states)
+    failed = [failed_path(Path(s)) for s in shards]
+    with_failed = all((f / layout.INFO_PATH).exists() for f in failed)
+    joined = RunState(states[0].family, states[0].seed, states[0].inputs_digest,
+                      next_draw={t: d for s in states for t, d in s.next_draw.items()},
+                      attempts=sum(s.attempts for s in states))
+    n = _merge(readers, out, joined)
+    if with_failed:
+        _merge([DatasetReader(f) for f in failed], failed_path(out), None)
+    return n
+
+
+def _state(reader: DatasetReader) -> RunState:
+    state = RunState.load(reader.root / STATE_FILE)
+    if state is None:
+        raise DatasetError(f"{reader.root}: no {STATE_FILE}; only datasets of mgdata generate --shard merge")
+    return state
+
+
+def _check_same(readers: list[DatasetReader], states: list[RunState]) -> None:
+    first, s0 = readers[0], states[0]
+    seen: dict[tuple[int, int], Path] = {}
+    for r, s in zip(readers, states, strict=True):
+        if (s.family, s.seed, s.inputs_digest) != (s0.family, s0.seed, s0.inputs_digest):
+            raise DatasetError(f"{r.root}: generated as {s.family!r} seed {s.seed} inputs "
+                               f"{s.inputs_digest}, {first.root} as {s0.family!r} seed {s0.seed} inputs "
+                               f"{s0.inputs_digest}: shards of one run must agree")
+        if r.schema != first.schema or r.video != first.video or r.spec != first.spec or \
+                (r.hold_steps, r.kept_only) != (first.hold_steps, first.kept_only):
+            raise DatasetError(f"{r.root}: its schema, video settings, spec or gate differ from "
+                               f"{first.root}'s")
+        for rec in r.records():
+            key = (rec.meta.task_id, rec.meta.draw_index)
+            if key in seen:
+                raise DatasetError(f"task {key[0]} draw {key[1]} is in both {seen[key]} and {r.root}: the "
+                                   "shards overlap")
+            seen[key] = r.root
+        if any(t in other.next_draw for other in states if other is not s for t in s.next_draw):
+            raise DatasetError(f"{r.root}: shares tasks with another shard; give each shard its own "
+                               "--shard i/N")
+
+
+def _merge(readers: list[DatasetReader], out: Path, state: RunState | None) -> int:
+    first = readers[0]
+    order = sorted(((rec.meta.draw_index, rec.meta.task_id, k, rec.index)
+                    for k, r in enumerate(readers) for rec in r.records()))
+    part = out.with_name(out.name + ".partial")
+    shutil.rmtree(part, ignore_errors=True)
+    info = first.info
+    mg = info["mgdata"]
+    extra = {"generator": mg["generator"]} if mg.get("generator") is not None else {}
+    video = first.video
+    with DatasetWriter.create(
+            part, first.schema, codec=video.codec, crf=video.crf, preset=video.preset, gop=video.gop,
+            spec=first.spec, chunks_size=int(info["chunks_size"]),
+            data_file_mb=int(info["data_files_size_in_mb"]),
+            video_file_mb=int(info["video_files_size_in_mb"]),
+            video_file_seconds=float(mg["video_file_seconds"]), hold_steps=first.hold_steps,
+            kept_only=first.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file")) as writer:
+        stage = writer.root / layout.WORK_DIR / "merge"
+        for _, _, k, e in order:
+            writer.append_staged(restage(readers[k], e, stage))
+        counts = [r.info["mgdata"].get("attempts") for r in readers]
+        if any(c is not None for c in counts):  # negatives datasets record none
+            writer.record_attempts(sum(c or 0 for c in counts))
+    if state is not None:
+        state.save(part / STATE_FILE)
+    os.replace(part, out)
+    return len(order)
+
+
+def restage(reader: DatasetReader, e: int, path: Path) -> Path:
+    """Episode ``e`` of ``reader`` as a staged-episode folder (:mod:`mgdata.record.staging`) at ``path``:
+    its frame columns, each camera's packets (copied), its scene, metadata and pixel histograms."""
+    rec, s = reader.record(e), reader.schema
+    shutil.rmtree(path, ignore_errors=True)
+    path.mkdir(parents=True)
+    table = reader.data_table(rec.data)
+    lo = rec.from_index - int(table.column("index")[0].as_py())
+    rows = table.slice(lo, rec.length)
+    frame_cols = [c.key for c in layout.frame_columns(s)]
+    pq.write_table(pa.Table.from_arrays([rows.column(k) for k in frame_cols], names=frame_cols),
+                   path / FRAMES_PARQUET)
+    for cam in s.cameras:
+        src, start = reader.video_file(e, cam)
+        remux([(src, start, rec.length)], path / f"{layout.video_key(cam)}.mp4", s.fps)
+    if s.physics_state_size:
+        (path / SCENE_MJB).write_bytes(reader.scene_mjb(e))
+    doc = {"format": STAGED_FORMAT, "length": rec.length, "task": rec.task, "meta": meta_to_dict(rec.meta),
+           "histograms": {k: h.tolist() for k, h in rec.histograms.items()},
+           "schema": asdict(s), "video": asdict(reader.video)}
+    (path / EPISODE_JSON).write_text(json.dumps(doc))
+    return path

@@ -1,0 +1,302 @@
+"""Pick-and-carry: the motion most families share, as segments and runtime targets a skeleton plugs in.
+
+The paper's pick: open, move to a pre-grasp pose ``grasp_standoff`` back along the grasp's approach axis
+(free), approach it (linear), let the arm settle, close, lift until the lowest point of the held object is
+``lift_margin`` above the tallest other object (at least ``lift_height``), carry it (free, or ``level`` in a
+straight line; slowed to ``carry_speed``) over the goal, lower it into the goal (linear) and hold it there.
+Grasps come from the grasp DB, round-robin over the task's reachable valid grasps
+(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check). Objects riding inside the held
+one (food in a jar, liquid in a cup) are the segments' ``riders``. For families that put an object down:
+:meth:`PickAndCarry.place_segments` (lower, release, retreat).
+
+A skeleton declares the keys it reads as ``PICK_AND_CARRY_KEYS`` + its own::
+
+    recipe_keys = PICK_AND_CARRY_KEYS + RecipeKeys(params=(...), variation=(...))
+
+    def segments(self, ctx):
+        return self.carry.segments(ctx)
+
+    def resolve(self, name, ctx):
+        return self.carry.resolve(name, ctx) or super().resolve(name, ctx)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mgdata.episode.gate import AttemptFailed
+from mgdata.grasps.db import Grasp
+from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.sim.geometry import LowestPoint
+from mgdata.sim.robot import ROOT_BODY
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.skeleton import Infeasible
+from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
+
+PICK_AND_CARRY_KEYS = RecipeKeys(
+    params=(
+        Param("open_steps", int, "control steps to open the gripper", 1, 200),
+        Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
+        Param("close_steps", int, "control steps to close the gripper on the object", 1, 200),
+        Param("lift_margin", float, "m the held object's lowest point clears the tallest other object",
+              0.0, 0.3),
+        Param("carry_speed", float, "fraction of the planned speed while carrying", 0.01, 1.0),
+        Param("goal_approach", float, "m above the goal from which the object is lowered into it", 0.0, 0.3),
+        Param("goal_hold_steps", int, "control steps holding the object still in the goal", 1, 2000),
+        Param("grasp_margin", float, "rad every joint of a reachable grasp keeps from its limits", 0.0, 1.0),
+        Param("grasp_clearance", float, "m a reachable grasp keeps the arm from all but the object",
+              0.0, 0.05),
+        Param("reach_standoff", float, "m pre-grasp standoff used to test which grasps are reachable",
+              0.0, 0.3),
+        Param("carry_yaws_deg", tuple, "turns of the object about the vertical tried at the goal (deg)",
+              -180.0, 180.0),
+    ),
+    variation=(
+        Knob("grasp_standoff", "m back along the approach axis for the pre-grasp pose", 0.0, 0.3),
+        Knob("grasp_height", "m offset of the grasp along the object's vertical axis", -0.05, 0.05),
+        Knob("lift_height", "m the object is lifted at least before carrying", 0.0, 0.3),
+        Knob("goal_dx", "m offset of the carried object's centre from the goal centre along x", -0.05, 0.05),
+        Knob("goal_dy", "m offset of the carried object's centre from the goal centre along y", -0.05, 0.05),
+    ),
+)
+"""The recipe keys pick-and-carry reads; a skeleton adds them to its own ``recipe_keys``."""
+
+TARGETS = ("pre_grasp", "grasp", "lift", "over_goal", "goal", "retreat")
+
+
+@dataclass(frozen=True)
+class PickAndCarry:
+    """Pick ``obj`` (an instance name) with a DB grasp and carry it into the task's goal sphere.
+
+    Attributes:
+        obj: the object picked.
+        riders: instances riding inside it (carried along, never obstacles while it is held).
+        grasp_filter: approach hints allowed (``("side",)`` for side grasps only); empty = any.
+        level: carry in a straight line at the lift height, the object upright all the way (only turned
+            about the vertical), instead of a free joint-space path (liquids).
+        tag: prefix of its segment names, runtime-target names, memo keys and gate facts, so that one
+            demonstration can pick several objects (``PickAndCarry("obstacle", tag="obstacle/")`` has the
+            segments ``obstacle/open`` …, the targets ``obstacle/grasp`` … and the gate fact
+            ``obstacle/grasps``); empty for the object a family mainly picks. A tagged pick chooses its grasp
+            when its pre-grasp is resolved, among the gate fact's grasps if the gate recorded one, else among
+            those reachable from the live state; the episode's ``grasp_id`` stays the untagged pick's.
+        support: the body the object rests on when it is picked (the lift may leave it touching that).
+    """
+
+    obj: str
+    riders: tuple[str, ...] = ()
+    grasp_filter: tuple[str, ...] = ()
+    level: bool = False
+    tag: str = ""
+    support: str = "table"
+
+    def name(self, base: str) -> str:
+        """The segment, runtime-target or memo name ``base`` of this pick (prefixed by ``tag``)."""
+        return f"{self.tag}{base}"
+
+    # -- segments --------------------------------------------------------------------------------------------
+    def segments(self, ctx: Context) -> list[s.MotionSegment]:
+        """Open, pick, lift, carry into the goal and hold (the gate counts the hold)."""
+        return [*self.pick_segments(ctx), *self.carry_segments(ctx)]
+
+    def pick_segments(self, ctx: Context) -> list[s.MotionSegment]:
+        """Open, pre-grasp, approach, settle, close, lift to clearance."""
+        p = ctx.params
+        if not self.tag:
+            self.choose_grasp(ctx)
+        touch = (("hand", self.obj),)
+        n = self.name
+        return [
+            s.gripper(n("open"), "open", steps=int(p["open_steps"])),
+            s.free(n("pre_grasp"), n("pre_grasp"), riders=self.riders),
+            s.linear(n("approach"), n("grasp"), allow=touch, riders=self.riders),
+            s.hold(n("grasp_settle"), steps=int(p["grasp_settle_steps"])),
+            s.gripper(n("close"), "close", steps=int(p["close_steps"])),
+            s.linear(n("lift"), n("lift"), gripper="close", attached=self.obj, riders=self.riders,
+                     allow=((self.obj, self.support),)),
+        ]
+
+    def carry_segments(self, ctx: Context) -> list[s.MotionSegment]:
+        """Carry the held object over the goal, lower it in and hold it still."""
+        p = ctx.params
+        held = {"gripper": "close", "attached": self.obj, "riders": self.riders,
+                "speed": float(p["carry_speed"])}
+        n = self.name
+        carry = (s.linear(n("carry"), n("over_goal"), orientation="slerp", **held)  # type: ignore[arg-type]
+                 if self.level else s.free(n("carry"), n("over_goal"), **held))  # type: ignore[arg-type]
+        return [
+            carry,
+            s.linear(n("into_goal"), n("goal"), **held),  # type: ignore[arg-type]
+            s.hold(n("hold"), steps=int(p["goal_hold_steps"]), gripper="close"),
+        ]
+
+    def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
+        """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
+        above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
+        n = self.name
+        return [
+            s.linear(n("place"), target, gripper="close", attached=self.obj, riders=self.riders,
+                     allow=((self.obj, "table"),)),
+            s.gripper(n("release"), "open", steps=retreat_steps),
+            s.linear(n("retreat"), n("retreat"), allow=(("hand", self.obj),), riders=self.riders),
+        ]
+
+    # -- runtime targets -------------------------------------------------------------------------------------
+    def resolve(self, name: str, ctx: Context) -> Pose | None:
+        """The TCP pose of runtime target ``name`` (one of :data:`TARGETS`, after ``tag``), or None if it is
+        not one."""
+        if not name.startswith(self.tag):
+            return None
+        name = name[len(self.tag):]
+        if self.tag and name == "pre_grasp":
+            self.choose_grasp(ctx)
+        if name in ("pre_grasp", "grasp"):
+            grasp = self._grasp_pose(ctx)
+            if name == "grasp":
+                return grasp
+            return Pose(grasp.pos - grasp.rotation()[:, 2] * ctx.variation["grasp_standoff"], grasp.quat)
+        if name == "lift":
+            tcp = ctx.commanded_tcp()
+            return Pose(tcp.pos + np.array([0.0, 0.0, self._lift(ctx)]), tcp.quat)
+        if name in ("over_goal", "goal"):
+            goal = ctx.memo.get(self.name("goal_tcp")) or self._goal_target(ctx)
+            ctx.memo[self.name("goal_tcp")] = goal
+            if name == "goal":
+                return goal
+            tcp = ctx.commanded_tcp()
+            z = max(goal.pos[2] + float(ctx.param("goal_approach")), tcp.pos[2])
+            return Pose(np.array([goal.pos[0], goal.pos[1], z]), goal.quat)
+        if name == "retreat":
+            tcp = ctx.commanded_tcp()
+            return Pose(tcp.pos - tcp.rotation()[:, 2] * ctx.variation["grasp_standoff"], tcp.quat)
+        return None
+
+    # -- grasps ----------------------------------------------------------------------------------------------
+    def choose_grasp(self, ctx: Context) -> Grasp:
+        """This attempt's grasp: round-robin (by draw) over the task's reachable valid grasps."""
+        reachable = self._reachable(ctx)
+        if not reachable:
+            model, n = ctx.task.object(self.obj).model, len(ctx.grasps.get(self.obj, ()))
+            why = (f"none of the {n} valid grasps of {model} is reachable from here" if n else
+                   f"{model} has no valid grasps: run `mgdata grasps generate` then `mgdata grasps validate`")
+            raise AttemptFailed("no_grasp", why)
+        grasp = reachable[ctx.variation.pick(len(reachable))]
+        ctx.memo[self.name("grasp")] = grasp
+        if not self.tag:
+            ctx.memo["grasp_id"] = grasp.id
+        return grasp
+
+    def reachable_grasps(self, ctx: Context, allowed: AllowedContacts = NO_CONTACTS) -> tuple[Grasp, ...]:
+        """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses (raised by the draw's
+        ``grasp_height``; the gate uses the midpoint) have IK solutions with
+        ``grasp_margin`` from the joint limits and the arm ``grasp_clearance`` clear of everything but the
+        object, its riders and the pairs in ``allowed`` (a wrist that grazes the table in the plan hits it
+        once the servos sag). From the state in ``ctx`` with a task-derived seed, so every worker agrees."""
+        pose_obj = ctx.object_pose(self.obj).matrix()
+        pose_obj[:3, 3] += pose_obj[:3, 2] * ctx.variation["grasp_height"]  # this draw's grasp height
+        margin = float(ctx.param("grasp_margin"))
+        planner = ctx.planner
+        touch = self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)) + allowed
+        planner.checker.configure(touch, None, float(ctx.param("grasp_clearance")))
+        standoff = float(ctx.param("reach_standoff"))
+        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9A5]))
+        out = []
+        for grasp in ctx.grasps.get(self.obj, ()):
+            if self.grasp_filter and grasp.approach not in self.grasp_filter:
+                continue
+            pose = Pose.from_matrix(pose_obj @ grasp.matrix())
+            pre = Pose(pose.pos - pose.rotation()[:, 2] * standoff, pose.quat)
+            try:
+                q_pre = planner.ik(pre, ctx.q_cmd, rng)
+                q = planner.ik(pose, q_pre, rng)
+            except MotionFailure:
+                continue
+            room = min(np.min(q - planner.lower), np.min(planner.upper - q),
+                       np.min(q_pre - planner.lower), np.min(planner.upper - q_pre))
+            if room >= margin and planner.checker.valid(q) and planner.checker.valid(q_pre):
+                out.append(grasp)
+        return tuple(out)
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """The initial-state gate's check: ≥ ``min_grasps`` reachable grasps, and the goal reachable holding
+        the object with the first of them. Returns ``{"grasps": ids}``."""
+        reachable = self.reachable_grasps(ctx)
+        if len(reachable) < max(min_grasps, 1):
+            raise Infeasible("reach.grasps", f"{len(reachable)} of the {len(ctx.grasps.get(self.obj, ()))} "
+                                             f"valid grasps of {self.obj} are reachable (needs {min_grasps})")
+        ctx.memo[self.name("grasp")] = reachable[0]
+        grasp_tcp = self._grasp_pose(ctx)
+        obj = ctx.object_pose(self.obj)
+        if self._goal_target(ctx, tcp=grasp_tcp, obj=obj, strict=True) is None:
+            raise Infeasible("reach.goal", f"no turn of {self.obj} about the vertical "
+                                           f"({list(ctx.param('carry_yaws_deg'))} deg) reaches the goal")
+        return {f"{self.tag}grasps": tuple(g.id for g in reachable)}
+
+    def _reachable(self, ctx: Context) -> tuple[Grasp, ...]:
+        ids = ctx.task.gate.get(f"{self.tag}grasps")
+        if ids is None:
+            key = f"{self.tag}reachable/{self.obj}"
+            if key not in ctx.memo:
+                ctx.memo[key] = self.reachable_grasps(ctx)
+            return ctx.memo[key]
+        by_id = {g.id: g for g in ctx.grasps.get(self.obj, ())}
+        return tuple(by_id[i] for i in ids if i in by_id)
+
+    def _grasp_pose(self, ctx: Context) -> Pose:
+        grasp: Grasp = ctx.memo[self.name("grasp")]
+        local = grasp.matrix()
+        local[2, 3] += ctx.variation["grasp_height"]
+        return Pose.from_matrix(ctx.object_pose(self.obj).matrix() @ local)
+
+    # -- lifting and the goal --------------------------------------------------------------------------------
+    def _lift(self, ctx: Context) -> float:
+        """How far up (m) the TCP goes: the held object's lowest point ``lift_margin`` above the tallest
+        other rigid object, and at least ``lift_height``."""
+        scene = ctx.scene
+        skip = {self.obj, *self.riders}
+        tops = [scene.object_pose(n)[0][2] + m.size[2] for n, m in scene.objects.items()
+                if n not in skip and m.particles is None and not m.fixed]
+        low = LowestPoint(scene.model, scene.object_geom_ids(self.obj))(scene.data)
+        need = (max(tops) + float(ctx.param("lift_margin")) - low) if tops else 0.0
+        return max(float(ctx.variation["lift_height"]), need)
+
+    def _goal_target(self, ctx: Context, *, tcp: Pose | None = None, obj: Pose | None = None,
+                     strict: bool = False) -> Pose | None:
+        """TCP pose that puts the held object's bounding-box centre at the goal centre (offset by the draw),
+        turned about the vertical by the first of ``carry_yaws_deg`` the arm can reach holding it (the
+        object stays upright). ``strict``: None if no turn is reachable (else the first turn)."""
+        goal = ctx.task.goal
+        if goal is None:
+            raise AttemptFailed("target_fail", f"the task has no goal region for {self.obj}")
+        tcp = tcp or ctx.tcp_pose()
+        obj = obj or ctx.object_pose(self.obj)
+        tcp_t_obj = tcp.inverse() @ obj
+        riders = tuple(b for r in self.riders for b in ctx.scene.loose_bodies(r))
+        held = Attachment(self.obj, tcp_t_obj.matrix(), riders=riders)
+        centre_local = np.asarray(ctx.scene.object_model(self.obj).size) * np.array([0.0, 0.0, 0.5])
+        centre = np.asarray(goal.pos) + np.array([ctx.variation["goal_dx"], ctx.variation["goal_dy"], 0.0])
+        rng = ctx.variation.rng("carry_yaw")
+        allowed = self._riders_touch(ctx)
+        first = None
+        for yaw in ctx.param("carry_yaws_deg"):
+            half = math.radians(yaw) / 2.0
+            turn = Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)])
+            rot = (turn @ Pose(np.zeros(3), obj.quat)).quat
+            target_obj = Pose(centre - Pose(np.zeros(3), rot).rotation() @ centre_local, rot)
+            target = target_obj @ tcp_t_obj.inverse()
+            first = first or target
+            try:
+                ctx.planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=held)
+            except MotionFailure:
+                continue
+            return target
+        return None if strict else first
+
+    # -- contacts --------------------------------------------------------------------------------------------
+    def _riders_touch(self, ctx: Context) -> AllowedContacts:
+        """The robot may touch the riders (they move with the object, never block the arm)."""
+        return AllowedContacts(tuple((ROOT_BODY, b) for r in self.riders for b in ctx.scene.loose_bodies(r)))
