@@ -45,9 +45,9 @@ from pathlib import Path
 
 from mgdata.engine.init_gate import forget_base_tasks
 from mgdata.episode.timing import PHASES
-from mgdata.generate.commands import parse_ids
 from mgdata.generate.run import GenerateJob, generate
 from mgdata.generate.summary import RunSummary
+from mgdata.options import parse_ids
 from mgdata.paths import recipes_dir
 
 

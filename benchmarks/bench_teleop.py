@@ -25,8 +25,8 @@ import threading
 import time
 from pathlib import Path
 
-import numpy as np
 import mgdata.teleop.bus
+import numpy as np
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.config import load_teleop_config
 from mgdata.teleop.emulator.arms import ArmBuild, ManualClock

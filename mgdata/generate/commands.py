@@ -11,25 +11,8 @@ import typer
 
 from mgdata.console import plain_console
 from mgdata.errors import DatasetError, OutputError, RecipeError
+from mgdata.options import parse_ids
 from mgdata.paths import datasets_dir
-
-
-def parse_ids(text: str, option: str = "--tasks") -> tuple[int, ...] | None:
-    """``"all"`` -> ``None``; ``"0-3,7"`` -> ``(0, 1, 2, 3, 7)``."""
-    if text.strip() == "all":
-        return None
-    out: list[int] = []
-    try:
-        for part in text.split(","):
-            lo, _, hi = part.strip().partition("-")
-            first, last = int(lo), int(hi or lo)
-            if last < first:
-                raise ValueError(part)
-            out += range(first, last + 1)
-    except ValueError:
-        raise RecipeError(f"{option} {text!r}: expected 'all' or ids and ranges such as '0-3,7' "
-                          "(each range low-high with low <= high)") from None
-    return tuple(out)
 
 
 def parse_shard(text: str | None) -> tuple[int, int] | None:

@@ -18,8 +18,9 @@ Example::
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -28,8 +29,24 @@ from mgdata.ltl.compile import compile_ltlf
 from mgdata.ltl.dfa import DFA
 from mgdata.ltl.status import ConstraintStatus
 
-if TYPE_CHECKING:
-    from mgdata.spec import SafetySpec
+
+class _Constraint(Protocol):
+    @property
+    def id(self) -> str: ...
+    @property
+    def formula(self) -> str: ...
+
+
+class SafetySpec(Protocol):
+    """What a :class:`Monitor` reads of a spec (:class:`mgdata.spec.SafetySpec` is one; the spec layer sits
+    above this one)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def proposition_names(self) -> Sequence[str]: ...
+    @property
+    def constraints(self) -> Sequence[_Constraint]: ...
 
 #: episodes at or above this batch size are stepped by numpy gathers across the batch
 _BATCH_GATHER_MIN = 16

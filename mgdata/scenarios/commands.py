@@ -43,7 +43,7 @@ def register(app: typer.Typer) -> None:
 
         Example: mgdata scenarios build --out scenarios --family jar --tasks 0-3
         """
-        from mgdata.generate.commands import parse_ids
+        from mgdata.options import parse_ids
         from mgdata.scenarios.store import build_family, write_manifest
         from mgdata.skeleton.skeleton import load_family_recipe
         from mgdata.tasks.recipe import family_recipes

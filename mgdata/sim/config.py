@@ -2,10 +2,10 @@
 
 Three tables, each read into the dataclass that uses it: ``[physics]`` →
 :class:`~mgdata.sim.physics_config.Physics` (rates, integrator, solver, friction cone, liquid solver),
-``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model) and ``[cameras]`` →
-:class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size). Every key is
-optional (the dataclass default applies); an unknown table or key, a value of the wrong type or a value out
-of range is one :class:`~mgdata.errors.RecipeError` naming the file and the key.
+``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model) and
+``[cameras]`` → :class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size).
+Every key is optional (the dataclass default applies); an unknown table or key, a value of the wrong type or
+a value out of range is one :class:`~mgdata.errors.RecipeError` naming the file and the key.
 
 Example::
 

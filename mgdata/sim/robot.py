@@ -22,8 +22,8 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   finger pads have a contact patch that resists that torque; the finger geoms get ``condim = 4`` with a
   torsional friction coefficient (``finger_condim``, ``finger_torsional_friction``) to model it. (The
   elliptic friction cone that stops a held jar creeping out of the fingers is a world option:
-  ``mgdata.sim.physics_config.Physics``.) Every scene built on this model (generator, grasp check, teleop) gets
-  it;
+  ``mgdata.sim.physics_config.Physics``.) Every scene built on this model (generator, grasp check, teleop)
+  gets it;
 * stiff finger pads: MuJoCo's default soft contact (``solref`` 0.02 s) let the 22 N squeeze sink the pads up
   to 4 mm into a jar wall 3–4 mm thick, and a grasped jar crept down in the fingers. ``finger_solref``
   (0.005 s, critically damped) with ``finger_solmix`` (100: the pads' ``solref`` dominates the mix with any
