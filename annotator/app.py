@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import viser
+
 from mgdata.annotator.catalog import Catalog
 from mgdata.annotator.config import AnnotateSettings, load_annotate_config
 from mgdata.annotator.draft import PRESETS, guided_pose, preset_frame, ray_hit
@@ -33,7 +34,6 @@ from mgdata.annotator.placements import recipe_placements
 from mgdata.annotator.store import GraspStore
 from mgdata.annotator.view import GHOST, View
 from mgdata.annotator.worker import Done, LatestWorker
-
 from mgdata.grasps.check import GraspCheckConfig, check_grasp
 from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import Grasp, approach_hint

@@ -31,7 +31,6 @@ def register(app: typer.Typer) -> None:
         from mgdata.annotator.app import Annotator
         from mgdata.annotator.catalog import Catalog
         from mgdata.annotator.store import GraspStore
-
         from mgdata.errors import AssetError
 
         catalog = Catalog.build(family, category)

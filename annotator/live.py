@@ -39,11 +39,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
 from mgdata.annotator.config import LiveConfig
 from mgdata.annotator.meshes import body_subtree_geoms
 from mgdata.annotator.objectscene import INSTANCE, ObjectScene
 from mgdata.annotator.placements import Placement, sim_check_placement
-
 from mgdata.grasps.check import GraspCheckConfig
 from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose

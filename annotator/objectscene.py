@@ -18,10 +18,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 import trimesh
+
 from mgdata.annotator.config import LiveConfig
 from mgdata.annotator.meshes import VISUAL_GROUPS, body_subtree_geoms, geom_mesh, geom_meshes
 from mgdata.annotator.placements import Placement
-
 from mgdata.motion import MotionConfig, MotionPlanner, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.config import default_image_size

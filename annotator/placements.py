@@ -17,8 +17,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from mgdata.annotator.config import LiveConfig
 
+from mgdata.annotator.config import LiveConfig
 from mgdata.grasps.check import GraspCheckConfig, check_placement
 from mgdata.grasps.db import Grasp
 from mgdata.sim.world import TABLE_TOP_Z

@@ -12,8 +12,8 @@ from collections.abc import Callable
 import numpy as np
 import trimesh
 import viser
-from mgdata.annotator.objectscene import ObjectScene
 
+from mgdata.annotator.objectscene import ObjectScene
 from mgdata.motion import Pose
 
 GHOST = {"green": (67, 160, 71), "amber": (255, 160, 0), "red": (229, 57, 53), "pending": (150, 150, 150)}

@@ -17,11 +17,11 @@ import math
 import time
 
 import numpy as np
+
 from mgdata.annotator.config import load_annotate_config
 from mgdata.annotator.live import LiveChecker
 from mgdata.annotator.objectscene import ObjectScene
 from mgdata.annotator.placements import recipe_placements
-
 from mgdata.grasps.candidates import candidates
 from mgdata.grasps.check import check_grasp
 from mgdata.grasps.config import load_grasp_config

@@ -25,8 +25,10 @@ import threading
 import time
 from pathlib import Path
 
-import mgdata.teleop.bus
 import numpy as np
+
+import mgdata.teleop.bus
+from mgdata.sim.robot import HOME_Q
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.config import load_teleop_config
 from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
@@ -38,8 +40,6 @@ from mgdata.teleop.reader import LeaderReader
 from mgdata.teleop.session import SessionJob, TeleopSession
 from mgdata.teleop.so101.calibration import so101_motors
 from mgdata.teleop.view import OperatorView
-
-from mgdata.sim.robot import HOME_Q
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 RECEIPT = """

@@ -15,12 +15,12 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from mgdata.teleop.session import SWITCH_S
 
 from mgdata.engine.init_gate import base_task
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.teleop.session import SWITCH_S
 
 
 def main() -> None:

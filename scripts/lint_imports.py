@@ -32,14 +32,14 @@ def stage(dst: Path) -> Path:
     return dst
 
 
-def module_cycles(root: Path) -> list[tuple[str, ...]]:
-    """Cycles between modules of ``mgdata`` (grimp's graph, staged at ``root``): one per strongly connected
-    set of modules that import each other (found with grimp's ``find_shortest_chain``)."""
+def module_cycles(root: Path, package: str = "mgdata") -> list[tuple[str, ...]]:
+    """Cycles between modules of ``package`` (grimp's graph of it, staged at ``root``): for each import
+    ``a -> b`` with a way back (grimp's ``find_shortest_chain(b, a)``), one cycle per set of modules."""
     sys.path.insert(0, str(root))
     try:
         import grimp
 
-        graph = grimp.build_graph("mgdata", cache_dir=None)
+        graph = grimp.build_graph(package, cache_dir=None)
     finally:
         sys.path.remove(str(root))
     cycles: list[tuple[str, ...]] = []

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from mgdata.teleop.sdk import require
 
 from mgdata.errors import DeviceError
+from mgdata.teleop.sdk import require
 
 _PORT_ERRORS = (OSError, termios.error)
 """What pyserial raises when the adapter goes away (SerialException is an OSError; tcflush: termios')."""

@@ -26,13 +26,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from mgdata.teleop.bus import Motor, ServoBus
-from mgdata.teleop.motion_check import MotionWatch
-from mgdata.teleop.ticks import RAD_PER_TICK, signed_diff, to_window
 
 from mgdata.atomic import write_text_atomic
 from mgdata.errors import DeviceError, RecipeError
 from mgdata.motion.ik import kinematic_arm_model
+from mgdata.teleop.bus import Motor, ServoBus
+from mgdata.teleop.motion_check import MotionWatch
+from mgdata.teleop.ticks import RAD_PER_TICK, signed_diff, to_window
 
 XL330_MODEL = 1200
 ARM_IDS = (1, 2, 3, 4, 5, 6, 7)

@@ -12,14 +12,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from mgdata.errors import DatasetError, RecipeError
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.config import load_teleop_config
 from mgdata.teleop.mapping import mapper_for
 from mgdata.teleop.reader import LeaderReader
 from mgdata.teleop.session import SessionJob, TeleopSession
 from mgdata.teleop.stream import LeaderStream, stream_path
-
-from mgdata.errors import DatasetError, RecipeError
 
 _FAMILY = {"gello": "dynamixel", "so101": "feetech"}
 

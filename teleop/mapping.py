@@ -20,13 +20,13 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+from mgdata.errors import RecipeError
 from mgdata.teleop.bus import Motor
 from mgdata.teleop.config import TeleopConfig
 from mgdata.teleop.gello import GelloCalibration
 from mgdata.teleop.retarget import Retargeter, RetargetStep
 from mgdata.teleop.so101.calibration import SO101Calibration
-
-from mgdata.errors import RecipeError
 
 ARMS = ("gello", "so101")
 

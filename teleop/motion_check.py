@@ -10,10 +10,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from mgdata.teleop.bus import Motor
-from mgdata.teleop.ticks import Unwrapper
 
 from mgdata.errors import DeviceError
+from mgdata.teleop.bus import Motor
+from mgdata.teleop.ticks import Unwrapper
 
 
 class MotionWatch:

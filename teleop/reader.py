@@ -38,9 +38,9 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
-from mgdata.teleop.bus import Motor, ServoBus
 
 from mgdata.errors import DeviceError
+from mgdata.teleop.bus import Motor, ServoBus
 
 START_TIMEOUT_S = 60.0
 """Longest wait (s) for the child to start and open the bus (a fresh interpreter on a loaded host)."""

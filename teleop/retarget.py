@@ -25,15 +25,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from mgdata.teleop.config import RetargetConfig
-from mgdata.teleop.so101.calibration import SO101Calibration
-from mgdata.teleop.so101.kinematics import SO101Kinematics
 from scipy.spatial.transform import Rotation
 
 from mgdata.motion.config import load_motion_config
 from mgdata.motion.ik import IKSolver
 from mgdata.motion.types import Pose
 from mgdata.sim.robot import HOME_Q
+from mgdata.teleop.config import RetargetConfig
+from mgdata.teleop.so101.calibration import SO101Calibration
+from mgdata.teleop.so101.kinematics import SO101Kinematics
 
 
 @dataclass(frozen=True)

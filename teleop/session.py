@@ -33,11 +33,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from mgdata.teleop.config import load_teleop_config
-from mgdata.teleop.mapping import Mapper, StepEvents
-from mgdata.teleop.priority import realtime
-from mgdata.teleop.reader import LeaderReader
-from mgdata.teleop.stream import LeaderStream, stream_rel
 
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.init_gate import base_task
@@ -55,6 +50,11 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.teleop.config import load_teleop_config
+from mgdata.teleop.mapping import Mapper, StepEvents
+from mgdata.teleop.priority import realtime
+from mgdata.teleop.reader import LeaderReader
+from mgdata.teleop.stream import LeaderStream, stream_rel
 
 SWITCH_S = 0.001
 """The interpreter's thread switch interval during a live session (s; Python's default is 5 ms)."""

@@ -33,6 +33,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+
 from mgdata.teleop.config import ViewConfig, load_teleop_config
 from mgdata.teleop.page import OperatorPage
 from mgdata.teleop.sdk import require

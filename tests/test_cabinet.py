@@ -17,9 +17,6 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
-import rawdata
-from mgdata.skeletons.cabinet import CabinetSkeleton
-from probed import probed_attempt
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task, check_initial_state
@@ -35,9 +32,12 @@ from mgdata.sim.predicates import Contacts, compile_check
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.cabinet import CabinetSkeleton
 from mgdata.spec import EVALUATORS
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.layout_rules import parse_layout
+from tests.helpers import rawdata
+from tests.helpers.probed import probed_attempt
 
 SLACK = 0.005  # the predicate's default margin
 BAND = 0.002   # m: the model's bounding box and the geoms' may differ by this much

@@ -14,9 +14,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-import rawdata
-from mgdata.skeletons.clutter import ClutterSkeleton
-from probed import probed_attempt
 
 from mgdata.engine.init_gate import base_task
 from mgdata.grasps.db import GraspDB
@@ -27,8 +24,11 @@ from mgdata.sim.scene import Scene, build_scene
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.clutter import ClutterSkeleton
 from mgdata.spec import SafetySpec
 from mgdata.tasks.base import draw_task
+from tests.helpers import rawdata
+from tests.helpers.probed import probed_attempt
 
 
 @pytest.fixture(scope="module")

@@ -23,9 +23,6 @@ import math
 import mujoco
 import numpy as np
 import pytest
-import rawdata
-from mgdata.skeletons.dusty import DustySkeleton
-from probed import probed_attempt
 
 from mgdata.engine.init_gate import base_task
 from mgdata.grasps.db import GraspDB
@@ -37,7 +34,10 @@ from mgdata.sim.scene import Scene
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.dusty import DustySkeleton
 from mgdata.tasks.recipe import Recipe
+from tests.helpers import rawdata
+from tests.helpers.probed import probed_attempt
 
 TASK = 1
 
@@ -237,9 +237,8 @@ def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> N
     carries it over the low rim)."""
     from types import SimpleNamespace
 
-    from mgdata.skeletons.dusty import _slide_tilt
-
     from mgdata.sim.scene import build_scene
+    from mgdata.skeletons.dusty import _slide_tilt
 
     scene = build_scene(base_task(recipe, TASK))
     geo = scene.object_model("source").geometry

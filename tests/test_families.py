@@ -28,7 +28,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-import rawdata
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
@@ -39,6 +38,7 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.recipe import family_recipes
+from tests.helpers import rawdata
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 FAMILIES = family_recipes()

@@ -17,7 +17,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from mgdata.skeletons.jar import JarSkeleton
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
@@ -31,6 +30,7 @@ from mgdata.sim.cameras import WRIST, WRIST_BODY_GEOM
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene
 from mgdata.skeleton import segment as s
+from mgdata.skeletons.jar import JarSkeleton
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
 

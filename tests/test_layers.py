@@ -24,9 +24,10 @@ def test_the_cycle_count_sees_a_cycle(tmp_path: Path) -> None:
         import lint_imports
     finally:
         sys.path.remove(str(REPO / "scripts"))
-    pkg = tmp_path / "mgdata"
+    pkg = tmp_path / "cyclic_pkg"
     pkg.mkdir()
     (pkg / "__init__.py").write_text("")
-    (pkg / "a.py").write_text("def f():\n    from mgdata import b\n")
-    (pkg / "b.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from mgdata import a\n")
-    assert lint_imports.module_cycles(tmp_path) == [("mgdata.a", "mgdata.b", "mgdata.a")]
+    (pkg / "a.py").write_text("def f():\n    from cyclic_pkg import b\n")
+    (pkg / "b.py").write_text("import typing\nif typing.TYPE_CHECKING:\n    from cyclic_pkg import a\n")
+    cycles = lint_imports.module_cycles(tmp_path, "cyclic_pkg")
+    assert cycles == [("cyclic_pkg.a", "cyclic_pkg.b", "cyclic_pkg.a")]

@@ -22,11 +22,8 @@ import math
 import mujoco
 import numpy as np
 import pytest
-import rawdata
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from mgdata.skeletons.lid import LidSkeleton
-from probed import probed_attempt
 
 from mgdata.engine.init_gate import base_task
 from mgdata.errors import RecipeError
@@ -39,10 +36,13 @@ from mgdata.sim.scene import Scene, build_scene
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.lid import LidSkeleton
 from mgdata.spec import EVALUATORS
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import LayoutRejected
+from tests.helpers import rawdata
+from tests.helpers.probed import probed_attempt
 
 MAX_OFFSET, MAX_GAP, MAX_TILT_DEG = 0.004, 0.003, 8.0  # the documented defaults (docs/predicates.md)
 SETTLE_STEPS = 150  # 0.3 s of physics after dropping the lid

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim.sim_tasks import ik, jar_task
 
 import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 from mgdata.errors import MgdataError
@@ -16,6 +15,7 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
+from tests.helpers.sim_tasks import ik, jar_task
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 

@@ -12,8 +12,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from mgdata.skeletons.stack import StackSkeleton
-from probed import probed_attempt
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
@@ -29,8 +27,10 @@ from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PickAndCarry
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeleton.variation import draw_variation
+from mgdata.skeletons.stack import StackSkeleton
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import DROP, place
+from tests.helpers.probed import probed_attempt
 
 STACK = ("stack_0", "stack_1", "stack_2")
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-import rawdata
 
 from mgdata.paths import recipes_dir
+from tests.helpers import rawdata
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 LID_SHUT_RAD = np.deg2rad(5.0)  # hinge angle from its closed stop

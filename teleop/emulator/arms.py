@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
 from mgdata.teleop.emulator.bus import Corruption, EmulatedBus
 from mgdata.teleop.emulator.script import JointScript
 from mgdata.teleop.emulator.servo import STS3215, XL330, ControlTable, EmulatedServo

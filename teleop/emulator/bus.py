@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from mgdata.teleop.emulator import dynamixel, feetech
 from mgdata.teleop.emulator.packet import Instruction
 from mgdata.teleop.emulator.servo import EmulatedServo

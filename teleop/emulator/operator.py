@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.emulator.arms import ManualClock
 from mgdata.teleop.emulator.script import JointScript

@@ -20,12 +20,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from mgdata.teleop.bus import Motor, ServoBus
-from mgdata.teleop.motion_check import MotionWatch
-from mgdata.teleop.ticks import RAD_PER_TICK, TICKS_PER_TURN, signed_diff
 
 from mgdata.atomic import write_text_atomic
 from mgdata.errors import DeviceError, RecipeError
+from mgdata.teleop.bus import Motor, ServoBus
+from mgdata.teleop.motion_check import MotionWatch
+from mgdata.teleop.ticks import RAD_PER_TICK, TICKS_PER_TURN, signed_diff
 
 STS3215_MODEL = 777
 MOTOR_NAMES = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper")

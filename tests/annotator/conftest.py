@@ -7,10 +7,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from annotator_helpers import START, chromium_path, free_port
+
 from mgdata.annotator.app import Annotator
 from mgdata.annotator.catalog import Catalog
 from mgdata.annotator.store import GraspStore
+from tests.helpers.annotator import START, chromium_path, free_port
 
 
 @pytest.fixture(scope="module")

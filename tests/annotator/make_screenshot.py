@@ -12,13 +12,13 @@ import tempfile
 import time
 from pathlib import Path
 
-from annotator_helpers import project
+from playwright.sync_api import sync_playwright
+
 from mgdata.annotator.app import Annotator
 from mgdata.annotator.catalog import Catalog
 from mgdata.annotator.store import GraspStore
-from playwright.sync_api import sync_playwright
-
 from mgdata.sim.assets import get_model
+from tests.helpers.annotator import project
 
 VIEWPORT = (1280, 940)
 

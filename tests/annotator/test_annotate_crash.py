@@ -21,7 +21,6 @@ import time
 from pathlib import Path
 
 from mgdata.annotator.store import GraspStore
-
 from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 

@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from typer.testing import CliRunner
+
 from mgdata.annotator.catalog import Catalog
 from mgdata.annotator.config import load_annotate_config
 from mgdata.annotator.live import LiveChecker
@@ -19,8 +21,6 @@ from mgdata.annotator.objectscene import ObjectScene
 from mgdata.annotator.placements import recipe_placements
 from mgdata.annotator.store import GraspStore
 from mgdata.annotator.worker import LatestWorker
-from typer.testing import CliRunner
-
 from mgdata.errors import AssetError
 from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import Grasp, GraspDB, approach_hint, write_file

@@ -12,13 +12,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from annotator_helpers import START, free_port, project, wait_for
+
 from mgdata.annotator.app import Annotator
 from mgdata.annotator.catalog import Catalog
 from mgdata.annotator.store import GraspStore
-
 from mgdata.grasps.db import GraspDB
 from mgdata.sim.assets import get_model
+from tests.helpers.annotator import START, free_port, project, wait_for
 
 VIEWPORT = (1280, 800)
 

@@ -15,7 +15,7 @@ from mgdata.record.episode import MemorySink
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.skeleton import segment as s
 from mgdata.spec import Constraint, Proposition, SafetySpec
-from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
+from tests.helpers.scripted import ScriptedSkeleton, scripted_recipe, scripted_task
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
 BOX = (ObjectPlacement("box", "box/carton_00", (0.5, 0.0, 0.0), 0.0),)

@@ -21,8 +21,8 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
-from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
 from tests.engine.test_segments import DOWN, NEVER
+from tests.helpers.scripted import ScriptedSkeleton, scripted_recipe, scripted_task
 
 BOX = (ObjectPlacement("box", "box/carton_00", (0.5, 0.0, 0.0), 0.0),)
 TOP = get_model("box/carton_00").size[2]

@@ -6,7 +6,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from mgdata.skeletons.clutter import ClutterSkeleton
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
@@ -19,6 +18,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PickAndCarry
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.clutter import ClutterSkeleton
 
 
 class _Track(JointController):

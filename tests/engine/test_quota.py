@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_two_pass import _files, low_yield_recipe
 
 from mgdata.generate.resume import DrawCursor
 from mgdata.generate.run import GenerateJob, generate
 from mgdata.record.reader import DatasetReader
+from tests.engine.test_two_pass import _files, low_yield_recipe
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 

@@ -9,12 +9,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_two_pass import _files, low_yield_recipe
 
 from mgdata.cpu import RESULT_FLAGS
 from mgdata.errors import WorkerError
 from mgdata.generate.fingerprint import local_fingerprint
 from mgdata.generate.run import GenerateJob, generate
+from tests.engine.test_two_pass import _files, low_yield_recipe
 
 ray = pytest.importorskip("ray")
 MGDATA = str(Path(sys.executable).parent / "mgdata")

@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from mgdata.skeletons.jar import JarSkeleton
 
 from mgdata.engine.init_gate import base_task
 from mgdata.errors import RecipeError, SpecError, UnknownFamilyError
 from mgdata.paths import recipes_dir
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.jar import JarSkeleton
 from mgdata.tasks.recipe import family_recipes, load_recipe
 
 

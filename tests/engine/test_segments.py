@@ -12,7 +12,7 @@ from mgdata.record.episode import MemorySink
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.skeleton import segment as s
 from mgdata.spec import Proposition
-from tests.engine.conftest import ScriptedSkeleton, scripted_recipe, scripted_task
+from tests.helpers.scripted import ScriptedSkeleton, scripted_recipe, scripted_task
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])  # TCP pointing straight down
 NEVER = (Proposition("box_dropped", "dropped", ("box",), {"floor_margin": 0.05}),)

@@ -7,11 +7,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_two_pass import _files, low_yield_recipe
 
 from mgdata.errors import DatasetError
 from mgdata.generate.merge import merge_shards
 from mgdata.generate.run import GenerateJob, failed_path, generate
+from tests.engine.test_two_pass import _files, low_yield_recipe
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 

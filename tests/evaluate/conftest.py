@@ -10,7 +10,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from mgdata.skeletons.jar import JarSkeleton
 
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task, cached_grasp_db
@@ -20,6 +19,7 @@ from mgdata.record.recorder import schema_for
 from mgdata.record.writer import DatasetWriter
 from mgdata.scenarios.store import build_scenario, write_manifest
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.skeletons.jar import JarSkeleton
 
 
 class LiftOpenJar(JarSkeleton):

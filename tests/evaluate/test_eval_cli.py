@@ -11,7 +11,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from eval_helpers import ENV, MGDATA, serve_process
+from tests.helpers.evaluate import ENV, MGDATA, serve_process
 
 
 def _eval(url: str, scenarios: Path, out: Path, *extra: str) -> list[str]:

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, rollout
-from mgdata.paths import project_root
+from tests.helpers.repo import REPO
 
 pytestmark = pytest.mark.lerobot
 
 
 def _venv_python() -> str:
-    root = project_root()
+    root = REPO
     venv = Path(os.environ.get("LEROBOT_VENV", root / ".cache" / "lerobot-venv"))
     python = venv / "bin" / "python"
     if not python.exists() or subprocess.run([str(python), "-c", "import lerobot"]).returncode != 0:
@@ -27,7 +27,7 @@ def _venv_python() -> str:
 
 
 def test_a_lerobot_checkpoint_is_evaluated(scenario_set: Path, tmp_path: Path) -> None:
-    python, root = _venv_python(), project_root()
+    python, root = _venv_python(), REPO
     env = {**os.environ, "PYTHONPATH": str(root), "HF_HUB_OFFLINE": "1"}
     ckpt = tmp_path / "act"
     built = subprocess.run([python, str(root / "scripts" / "lerobot_tiny_policy.py"), str(ckpt), "256"],

@@ -8,7 +8,6 @@ import urllib.request
 import msgpack
 import numpy as np
 import pytest
-from eval_helpers import serve_process
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -17,6 +16,7 @@ from websockets.sync.client import connect
 from mgdata.errors import PolicyError
 from mgdata.evaluate.client import PolicyClient
 from mgdata.evaluate.wire import packb, unpackb
+from tests.helpers.evaluate import serve_process
 
 DTYPES = st.sampled_from(["<f4", "<f8", "|u1", "<i8", "<i4", "|b1", "<f2"])
 

@@ -11,12 +11,12 @@ from collections.abc import Callable
 
 import pytest
 from hypothesis import HealthCheck, given, settings
-from ltl_strategies import formulas
-from mona_oracle import MONA, MonaDfa, mona_dfa
 
 from mgdata.ltl import compile_ltlf, parse
 from mgdata.ltl.dfa import DFA
 from mgdata.ltl.syntax import Formula
+from tests.helpers.ltl_strategies import formulas
+from tests.helpers.mona_oracle import MONA, MonaDfa, mona_dfa
 
 pytest.importorskip("ltlf2dfa", reason="ltlf2dfa is a dev dependency (pip install -e .[dev])")
 pytestmark = pytest.mark.skipif(MONA is None, reason="the MONA binary is missing: apt-get install mona")

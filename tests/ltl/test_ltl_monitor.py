@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from ltl_strategies import APS, formulas
 
 from mgdata.errors import SpecError
 from mgdata.ltl import ConstraintStatus, Monitor, verdict
 from mgdata.ltl.syntax import Formula
 from mgdata.spec import Constraint, Proposition, SafetySpec
+from tests.helpers.ltl_strategies import APS, formulas
 
 S = ConstraintStatus
 JAR_PROPS = ("jar_on_support", "jar_closed", "jar_dropped", "jar_upright")

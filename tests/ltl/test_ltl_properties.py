@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from ltl_strategies import distinguishable_pairs, formulas, random_traces, reachable
 
 from mgdata.ltl import compile_ltlf, holds, parse
 from mgdata.ltl.status import ConstraintStatus
 from mgdata.ltl.syntax import Formula
+from tests.helpers.ltl_strategies import distinguishable_pairs, formulas, random_traces, reachable
 
 FIXED = settings(derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -7,9 +7,9 @@ import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 # isort: split
 import mujoco
 import pytest
-from motion_scenes import home_data, scene
 
 from mgdata.motion import MotionConfig, MotionPlanner
+from tests.helpers.motion_scenes import home_data, scene
 
 
 @pytest.fixture(scope="module")

@@ -5,12 +5,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from motion_scenes import down_pose, home_data
 
 from mgdata.errors import SceneError
 from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, CheckConfig, MotionPlanner
 from mgdata.motion.collision import CollisionChecker
 from mgdata.sim.robot import FINGER_BODIES, HAND_BODY, HOME_Q, TCP_SITE, load_panda_spec, robot_body_ids
+from tests.helpers.motion_scenes import down_pose, home_data
 
 
 def probe_scene() -> mujoco.MjModel:

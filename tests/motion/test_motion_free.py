@@ -5,10 +5,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from motion_scenes import BOX_HALF, WALL_HALF, down_pose, home_data
 
 from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, MotionConfig, MotionFailure, MotionPlanner
 from mgdata.sim.robot import FINGER_BODIES, HAND_BODY, HOME_Q, robot_body_ids
+from tests.helpers.motion_scenes import BOX_HALF, WALL_HALF, down_pose, home_data
 
 WALL_TOP = 2 * WALL_HALF[2]
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from motion_scenes import TOP_DOWN, WALL_HALF, WALL_X, down_pose, scene
 
 from mgdata.motion import NO_CONTACTS, MotionFailure, MotionPlanner, Pose
 from mgdata.sim.robot import HOME_Q, TCP_SITE
+from tests.helpers.motion_scenes import TOP_DOWN, WALL_HALF, WALL_X, down_pose, scene
 
 
 def test_fk_matches_the_scene_even_with_a_moved_base() -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from motion_scenes import TOP_DOWN, down_pose
 
 from mgdata.motion import AllowedContacts, MotionFailure, MotionPlanner, Pose
 from mgdata.motion.cartesian import line_deviation, slerp
 from mgdata.sim.robot import HOME_Q
+from tests.helpers.motion_scenes import TOP_DOWN, down_pose
 
 
 @pytest.fixture(scope="module")

@@ -6,15 +6,15 @@ from __future__ import annotations
 import hashlib
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-from motion_scenes import down_pose, home_data, scene
-from test_motion_free import penetrations
 
 from mgdata.motion import MotionConfig, MotionFailure, MotionPlanner, Pose
 from mgdata.sim.robot import HOME_Q
+from tests.helpers.motion_scenes import down_pose, home_data, scene
+from tests.helpers.repo import REPO
+from tests.motion.test_motion_free import penetrations
 
 STAGES = {"ik_fail", "plan_fail", "retime_fail", "collision_recheck"}
 
@@ -80,7 +80,7 @@ def fingerprint() -> str:
 
 
 def test_same_seed_gives_the_same_bytes_in_another_process() -> None:
-    here = str(Path(__file__).resolve().parent)
-    code = f"import sys; sys.path.insert(0, {here!r}); import test_motion_random as t; print(t.fingerprint())"
+    code = (f"import sys; sys.path.insert(0, {str(REPO)!r}); import tests.motion.test_motion_random as t; "
+            "print(t.fingerprint())")
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert other.stdout.strip() == fingerprint()

@@ -12,13 +12,13 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-from conftest import GENERATED, SMALL, write_dataset, write_episodes
-from tamper import edit_column, edit_meta
 
 from mgdata.record import layout
 from mgdata.record.synthetic import synthetic_episode
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.record import GENERATED, SMALL, write_dataset, write_episodes
+from tests.helpers.tamper import edit_column, edit_meta
 
 
 def _problems(tmp_path: Path, episodes: list, **kwargs) -> list[str]:

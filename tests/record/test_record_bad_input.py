@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import SMALL, small_episodes
 
 from mgdata.errors import DatasetError
 from mgdata.record import layout
@@ -20,6 +19,7 @@ from mgdata.record.episode import Frame
 from mgdata.record.reader import DatasetReader
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.record import SMALL, small_episodes
 
 DATA = "data/chunk-000/file-000.parquet"
 EPISODES = "meta/episodes/chunk-000/file-000.parquet"

@@ -7,9 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import LENGTHS
-
 from mgdata.record.summary import summarize
+from tests.helpers.record import LENGTHS
 
 MGDATA = [sys.executable, "-c", "from mgdata.cli import main; main()"]
 

@@ -12,7 +12,7 @@ from mgdata.record.commit import FileView, Transaction, pending_dir, recover
 from mgdata.record.synthetic import SYNTHETIC_SPEC
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
-from tests.record.conftest import SMALL, small_episodes, write_episodes
+from tests.helpers.record import SMALL, small_episodes, write_episodes
 
 
 def _tx(root: Path, text: str) -> Transaction:

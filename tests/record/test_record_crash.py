@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import tree_digest, write_episodes
 
 from mgdata.record.commit import FileView
 from mgdata.record.reader import DatasetReader
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.record import tree_digest, write_episodes
 
 SCHEMA = synthetic_schema(cameras=("front", "wrist", "left"), size=64)
 

@@ -7,12 +7,11 @@ import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from conftest import GENERATED, SMALL, small_episodes, tree_digest, write_dataset
-
 from mgdata.errors import DatasetError
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.record import GENERATED, SMALL, small_episodes, tree_digest, write_dataset
 
 
 def test_two_writes_give_identical_bytes(small_dataset: Path, tmp_path: Path) -> None:

@@ -15,7 +15,6 @@ import pytest
 
 from mgdata.engine.init_gate import base_task
 from mgdata.errors import DatasetError
-from mgdata.paths import project_root
 from mgdata.record import layout
 from mgdata.record.commit import sha256_file
 from mgdata.record.episode import MemorySink
@@ -32,6 +31,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.repo import REPO
 
 CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
 
@@ -76,7 +76,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _doc_example() -> dict:
     """Run the example of ``docs/dataset-format.md`` (the python block after its marker) as written."""
-    text = (project_root() / "docs/dataset-format.md").read_text()
+    text = (REPO / "docs/dataset-format.md").read_text()
     code = re.search(r"<!-- example: restore-frame -->\n```python\n(.*?)```", text, re.S)
     assert code, "the restore-frame example is missing from docs/dataset-format.md"
     namespace: dict = {}

@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import small_episodes, tree_digest, write_dataset
 
 from mgdata.record import layout
 from mgdata.record.reader import DatasetReader
@@ -26,6 +25,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.record import small_episodes, tree_digest, write_dataset
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 SOURCE_CAMERAS, SIZE, STEPS, TASKS = ("front", "left", "wrist"), 64, 24, (0, 1, 0)

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-from conftest import LENGTHS, SMALL, psnr, small_episodes, write_dataset, write_episodes
 
 from mgdata.record import layout
 from mgdata.record.reader import DatasetReader
@@ -16,6 +15,7 @@ from mgdata.record.stats import image_stats, numeric_stats, rgb_histogram
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.record import LENGTHS, SMALL, psnr, small_episodes, write_dataset, write_episodes
 
 
 def test_numeric_columns_and_metadata_round_trip(small_dataset: Path) -> None:

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SMALL, psnr
 
 from mgdata.errors import DatasetError
 from mgdata.record.synthetic import synthetic_episode, synthetic_schema
 from mgdata.record.video import VideoEncoder, VideoSettings, decode, probe, remux
+from tests.helpers.record import SMALL, psnr
 
 
 def _frames(n: int, seed: int = 1, schema=SMALL) -> np.ndarray:

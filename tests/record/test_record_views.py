@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import LENGTHS, small_episodes
 
 from mgdata.errors import DatasetError
 from mgdata.record.export import export_dataset
 from mgdata.record.reader import DatasetReader
 from mgdata.record.validate import validate_dataset
 from mgdata.record.video import decode
+from tests.helpers.record import LENGTHS, small_episodes
 
 
 def _jsonl(path: Path) -> list[dict]:

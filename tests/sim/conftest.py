@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import pytest
-from sim_tasks import jar_task
 
 import mgdata  # noqa: F401  (must precede any mujoco import: sets MUJOCO_GL)
 from mgdata.sim.scene import Scene, build_scene
+from tests.helpers.sim_tasks import jar_task
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import task_with
 
 from mgdata.errors import AssetError
 from mgdata.sim.assets import categories, get_model, model_names
@@ -15,6 +14,7 @@ from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
+from tests.helpers.sim_tasks import task_with
 
 REQUIRED = {"cup", "mug", "teacup", "bowl", "plate", "box", "bottle", "jar", "food", "container", "lid",
             "tray", "sponge", "board", "cabinet", "liquid", "dust"}

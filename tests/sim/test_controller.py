@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_tasks import jar_task
 
 from mgdata.errors import MgdataError, SimulationError
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
+from tests.helpers.sim_tasks import jar_task
 
 
 def test_action_maps_to_actuators_and_state_tracks_it(jar_scene: Scene) -> None:

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-from sim_tasks import ik, jar_task
 
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
+from tests.helpers.sim_tasks import ik, jar_task
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 

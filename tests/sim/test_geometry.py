@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from sim_tasks import task_with
 
 from mgdata.sim.geometry import FlatTop, GeomGaps, LowestPoint
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.world import FLOOR_Z, TABLE_TOP_Z, TABLE_X, TABLE_Y
+from tests.helpers.sim_tasks import task_with
 
 
 @pytest.fixture(scope="module")

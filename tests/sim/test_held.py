@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import ik, task_with
 
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
@@ -22,6 +21,7 @@ from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
+from tests.helpers.sim_tasks import ik, task_with
 
 HELD_GAP_TOL = 0.0005  # m: ``held``'s documented default; closer to the table top than this is support
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])

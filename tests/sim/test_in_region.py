@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from sim_tasks import task_with
 
 from mgdata.errors import SpecError
 from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import GoalRegion, ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec, proposition_from_mapping
+from tests.helpers.sim_tasks import task_with
 
 GOAL = np.array([0.5, 0.2, 0.15])
 RADIUS = 0.05

@@ -5,7 +5,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import task_with
 
 from mgdata.errors import SpecError
 from mgdata.sim.labelling import Labeller
@@ -13,6 +12,7 @@ from mgdata.sim.predicates import FACTORIES
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import EVALUATORS, Proposition, SafetySpec
+from tests.helpers.sim_tasks import task_with
 
 
 def spec_of(*props: Proposition) -> SafetySpec:

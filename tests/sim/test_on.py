@@ -7,7 +7,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import ik, task_with
 
 from mgdata.motion.config import load_motion_config
 from mgdata.sim import robot
@@ -16,6 +15,7 @@ from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import EVALUATORS, Proposition, SafetySpec
+from tests.helpers.sim_tasks import ik, task_with
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 GAP_TOL = next(p.default for p in EVALUATORS["on"].params if p.name == "gap_tol")

@@ -5,7 +5,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import task_with
 
 from mgdata.errors import SceneError
 from mgdata.sim.assets import get_model
@@ -14,6 +13,7 @@ from mgdata.sim.particles import PARK_Z
 from mgdata.sim.scene import build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
+from tests.helpers.sim_tasks import task_with
 
 
 def test_liquid_fills_its_container_and_stays_in_at_rest() -> None:

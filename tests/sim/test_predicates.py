@@ -7,7 +7,6 @@ from collections.abc import Callable
 
 import mujoco
 import numpy as np
-from sim_tasks import ik, task_with
 
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
@@ -17,6 +16,7 @@ from mgdata.sim.labelling import Labeller
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.spec import Proposition, SafetySpec
+from tests.helpers.sim_tasks import ik, task_with
 
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 """TCP rotation pointing straight down, fingers closing along world Y."""

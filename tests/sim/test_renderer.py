@@ -8,7 +8,6 @@ import hashlib
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -21,6 +20,7 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.render_config import RenderConfig
 from mgdata.sim.renderer import CameraRig, camera_option, context_model
 from mgdata.sim.scene import Scene, build_scene
+from tests.helpers.repo import REPO
 
 MIN_PIXELS = 20
 
@@ -112,7 +112,7 @@ def test_wrist_camera_sits_on_its_body_behind_the_fingertips(jar_scene: Scene) -
 SHEET_SCRIPT = """
 import hashlib, sys
 sys.path.insert(0, {tests!r})
-from sim_tasks import jar_task
+from tests.helpers.sim_tasks import jar_task
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 scene = build_scene(jar_task())
@@ -150,7 +150,7 @@ def test_images_are_byte_identical_in_a_fresh_process(jar_scene: Scene) -> None:
     with CameraRig(jar_scene) as rig:
         images = rig.render()
     here = hashlib.sha256(b"".join(images[c].tobytes() for c in images)).hexdigest()
-    script = SHEET_SCRIPT.format(tests=str(Path(__file__).parent))
+    script = SHEET_SCRIPT.format(tests=str(REPO))
     env = {**os.environ, "LP_NUM_THREADS": "1"}
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
     assert run.returncode == 0, run.stderr

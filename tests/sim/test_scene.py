@@ -7,7 +7,6 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import jar_task
 
 from mgdata.errors import AssetError, SceneError
 from mgdata.sim import robot
@@ -15,6 +14,7 @@ from mgdata.sim.cameras import CAMERA_NAMES
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.world import TABLE_TOP_Z
+from tests.helpers.sim_tasks import jar_task
 
 
 def test_naming_contract(jar_scene: Scene) -> None:

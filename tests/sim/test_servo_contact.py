@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_tasks import task_with
 
 from mgdata.errors import SceneError
 from mgdata.sim import robot
@@ -13,6 +12,7 @@ from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.servo import ArmServo
 from mgdata.sim.taskspec import ObjectPlacement
+from tests.helpers.sim_tasks import task_with
 
 
 @pytest.fixture(scope="module")

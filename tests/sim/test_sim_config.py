@@ -9,7 +9,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from sim_tasks import jar_task, task_with
 
 from mgdata.errors import RecipeError
 from mgdata.grasps.config import load_grasp_config
@@ -23,6 +22,7 @@ from mgdata.sim.physics_config import Physics
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.sim_tasks import jar_task, task_with
 
 
 def _finger_geoms(model: mujoco.MjModel) -> np.ndarray:

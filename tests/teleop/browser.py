@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from mgdata.sim.robot import HOME_Q
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.config import load_teleop_config
 from mgdata.teleop.emulator.arms import ManualClock
@@ -23,9 +25,7 @@ from mgdata.teleop.mapping import mapper_for
 from mgdata.teleop.reader import LeaderReader
 from mgdata.teleop.session import SessionJob, TeleopSession
 from mgdata.teleop.view import OperatorView
-
-from mgdata.sim.robot import HOME_Q
-from tests.teleop.conftest import GELLO_BUILD
+from tests.helpers.teleop import GELLO_BUILD
 
 
 def chromium() -> str:

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import pytest
-from mgdata.teleop.bus import ServoBus
-from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
-from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
-from mgdata.teleop.gello import GelloCalibration, gello_motors
 
 from mgdata.sim.robot import HOME_Q
+from mgdata.teleop.bus import ServoBus
+from mgdata.teleop.emulator.arms import ManualClock
+from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
+from mgdata.teleop.gello import GelloCalibration, gello_motors
+from tests.helpers.teleop import GELLO_BUILD
 
 pytest.importorskip("dynamixel_sdk", reason="the teleop extra (dynamixel-sdk) is not installed")
 pytest.importorskip("scservo_sdk", reason="the teleop extra (feetech-servo-sdk) is not installed")
@@ -18,10 +19,6 @@ def _patient_replies(monkeypatch: pytest.MonkeyPatch) -> None:
     """The emulated servos answer from a thread of this (often heavily loaded) host, not in microseconds as
     real ones do; a longer reply timeout keeps scheduling delays from looking like lost packets."""
     monkeypatch.setattr("mgdata.teleop.bus.DEFAULT_LATENCY_MS", 250.0)
-
-
-GELLO_BUILD = ArmBuild.gello(seed=3).near_wrap(3, HOME_Q[3])
-"""A GELLO whose joint 4 sits 2 ticks under the encoder wrap in the calibration pose."""
 
 
 @pytest.fixture(scope="session")

@@ -17,13 +17,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from mgdata.teleop.so101.kinematics import SO101Kinematics
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from mgdata.motion.config import load_motion_config
 from mgdata.motion.ik import IKSolver
 from mgdata.motion.types import Pose
+from mgdata.teleop.so101.kinematics import SO101Kinematics
 
 DOWN_TOP = np.array([-0.003, -0.383, 0.364, 1.59, 0.046])
 """Leader joints (rad): gripper pointing straight down, 18 cm in front of the base, 8 cm up."""

@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+from mgdata.errors import DeviceError, RecipeError
+from mgdata.motion.ik import kinematic_arm_model
+from mgdata.sim.robot import HOME_Q
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
 from mgdata.teleop.emulator.bus import Corruption
 from mgdata.teleop.emulator.operator import calibrate_gello, gello_calibration_scripts
 from mgdata.teleop.emulator.script import JointScript
 from mgdata.teleop.gello import GelloCalibration, gello_motors
-
-from mgdata.errors import DeviceError, RecipeError
-from mgdata.motion.ik import kinematic_arm_model
-from mgdata.sim.robot import HOME_Q
-from tests.teleop.conftest import GELLO_BUILD
+from tests.helpers.teleop import GELLO_BUILD
 
 TICK = 2 * np.pi / 4096
 LIMITS = kinematic_arm_model().jnt_range
@@ -165,7 +165,7 @@ def test_lerobot_pinned_dynamixel_sdk_38(tmp_path: Path) -> None:
         "import dynamixel_sdk, numpy as np\n"
         f"assert dynamixel_sdk.__file__.startswith({str(LEGACY)!r}), dynamixel_sdk.__file__\n"
         "from tests.teleop.test_gello import _read_q\n"
-        "from tests.teleop.conftest import GELLO_BUILD\n"
+        "from tests.helpers.teleop import GELLO_BUILD\n"
         "import teleop.bus; teleop.bus.DEFAULT_LATENCY_MS = 250.0\n"
         "from teleop.bus import ServoBus\n"
         "from teleop.emulator.arms import ManualClock\n"

@@ -12,12 +12,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from mgdata.teleop.gello import GelloCalibration
-from mgdata.teleop.session import TeleopSession
 
 from mgdata.generate.run import failed_path
 from mgdata.record.physics import model_from_bytes, set_physics_state
 from mgdata.record.reader import DatasetReader
+from mgdata.teleop.gello import GelloCalibration
+from mgdata.teleop.session import TeleopSession
 from tests.teleop.browser import open_operator_page, served_session, wait
 
 pytest.importorskip("playwright", reason="playwright is part of the dev setup")

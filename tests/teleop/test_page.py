@@ -7,9 +7,9 @@ import json
 import socket
 
 import pytest
-from mgdata.teleop.page import OperatorPage
 
 from mgdata.errors import OutputError
+from mgdata.teleop.page import OperatorPage
 
 BUTTONS = (("Record", "record", "r"), ("Quit", "quit", "q"))
 

@@ -9,10 +9,10 @@ import sys
 import threading
 
 import pytest
-from mgdata.teleop.config import LoopConfig
-from mgdata.teleop.priority import realtime
 
 from mgdata.errors import RecipeError
+from mgdata.teleop.config import LoopConfig
+from mgdata.teleop.priority import realtime
 
 
 def _policy(tid: int) -> tuple[int, int]:

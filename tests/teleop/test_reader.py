@@ -12,6 +12,9 @@ import time
 
 import numpy as np
 import pytest
+
+from mgdata.errors import DeviceError, MgdataError
+from mgdata.sim.robot import HOME_Q
 from mgdata.teleop import sdk
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.emulator.arms import ManualClock
@@ -19,10 +22,7 @@ from mgdata.teleop.emulator.bus import EmulatedBus
 from mgdata.teleop.emulator.script import JointScript
 from mgdata.teleop.gello import GelloCalibration
 from mgdata.teleop.reader import LeaderReader
-
-from mgdata.errors import DeviceError, MgdataError
-from mgdata.sim.robot import HOME_Q
-from tests.teleop.conftest import GELLO_BUILD
+from tests.helpers.teleop import GELLO_BUILD
 
 
 def test_reader_logs_readings_and_reports_an_unplugged_leader(gello_cal: GelloCalibration) -> None:

@@ -6,12 +6,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from mgdata.teleop.config import RetargetConfig, load_teleop_config
-from mgdata.teleop.retarget import Retargeter
-from mgdata.teleop.so101.calibration import MOTOR_NAMES, MotorCalibration, SO101Calibration
 
 from mgdata.motion.ik import kinematic_arm_model
 from mgdata.sim.robot import HOME_Q, TCP_SITE
+from mgdata.teleop.config import RetargetConfig, load_teleop_config
+from mgdata.teleop.retarget import Retargeter
+from mgdata.teleop.so101.calibration import MOTOR_NAMES, MotorCalibration, SO101Calibration
 
 CAL = SO101Calibration("emulated", 1_000_000,
                        {n: MotorCalibration(k + 1, 0, 0, 1000, 3094) for k, n in enumerate(MOTOR_NAMES)})

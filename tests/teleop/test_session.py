@@ -7,6 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from mgdata.record.reader import DatasetReader
+from mgdata.record.validate import validate_dataset
+from mgdata.sim.robot import HOME_Q
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
 from mgdata.teleop.emulator.operator import calibrate_so101, so101_calibration_scripts
@@ -15,11 +19,7 @@ from mgdata.teleop.gello import GelloCalibration
 from mgdata.teleop.live import replay_episode
 from mgdata.teleop.so101.calibration import so101_motors
 from mgdata.teleop.stream import LeaderStream, stream_path
-
-from mgdata.record.reader import DatasetReader
-from mgdata.record.validate import validate_dataset
-from mgdata.sim.robot import HOME_Q
-from tests.teleop.conftest import GELLO_BUILD
+from tests.helpers.teleop import GELLO_BUILD
 from tests.teleop.scripted import run_scripted_session
 from tests.teleop.so101_demo import operator_script
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from mgdata.errors import DeviceError, RecipeError
 from mgdata.teleop.bus import ServoBus
 from mgdata.teleop.emulator.arms import ArmBuild, ManualClock
 from mgdata.teleop.emulator.bus import Corruption
@@ -14,8 +16,6 @@ from mgdata.teleop.emulator.operator import calibrate_so101, so101_calibration_s
 from mgdata.teleop.emulator.script import JointScript
 from mgdata.teleop.so101.calibration import SO101Calibration, so101_motors
 from mgdata.teleop.so101.kinematics import SO101Kinematics
-
-from mgdata.errors import DeviceError, RecipeError
 
 TICK = 2 * np.pi / 4096
 FK = SO101Kinematics()

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mgdata.teleop.stream import LeaderStream, stream_path, stream_rel
 
 from mgdata.errors import DatasetError
 from mgdata.record.commit import Transaction
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from mgdata.teleop.stream import LeaderStream, stream_path, stream_rel
 
 SCHEMA = synthetic_schema(cameras=("front",), size=32)
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mgdata.teleop.gello import GelloCalibration
 
+from mgdata.teleop.gello import GelloCalibration
 from tests.teleop.browser import open_operator_page, served_session, wait
 
 pytest.importorskip("playwright", reason="playwright is part of the dev setup")

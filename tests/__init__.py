@@ -1,0 +1,1 @@
+"""The mgdata test suite (a package: helpers in tests/helpers, fixtures through pytest_plugins)."""

@@ -1,0 +1,45 @@
+"""Helpers of the dataset tests: small synthetic datasets written with the real writer."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from mgdata.record.synthetic import SYNTHETIC_SPEC, SyntheticEpisode, synthetic_episode, synthetic_schema
+from mgdata.record.writer import DatasetWriter
+
+SMALL = synthetic_schema(cameras=("front", "wrist", "left"), size=64)
+LENGTHS = (23, 31, 17, 40)
+GENERATED = {"hold_steps": 10, "kept_only": True}
+"""What ``mgdata generate`` promises about its output dataset (``DatasetWriter.create`` arguments)."""
+
+
+def small_episodes(lengths: tuple[int, ...] = LENGTHS, schema=SMALL) -> list[SyntheticEpisode]:
+    return [synthetic_episode(schema, n, seed=10 + i, draw_index=i) for i, n in enumerate(lengths)]
+
+
+def write_episodes(writer: DatasetWriter, episodes: list[SyntheticEpisode]) -> None:
+    for ep in episodes:
+        for frame in ep.frames():
+            writer.add_frame(frame)
+        writer.end_episode(ep.meta)
+
+
+def write_dataset(root: Path, episodes: list[SyntheticEpisode], **kwargs) -> Path:
+    schema = episodes[0].schema
+    with DatasetWriter.create(root, schema, spec=SYNTHETIC_SPEC, **kwargs) as writer:
+        write_episodes(writer, episodes)
+    return root
+
+
+def tree_digest(root: Path) -> dict[str, str]:
+    """Relative path → SHA-256 of every file under ``root``."""
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    mse = np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2)
+    return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
