@@ -1,10 +1,13 @@
-"""Suite-wide set-up."""
+"""Suite-wide set-up: shared fixtures come from ``tests.helpers.fixtures`` (``pytest_plugins``); helpers are
+imported from ``tests.helpers`` (never from a conftest)."""
 
 from __future__ import annotations
 
 import signal
 
 import pytest
+
+pytest_plugins = ["tests.helpers.fixtures"]
 
 
 def pytest_configure(config: pytest.Config) -> None:
