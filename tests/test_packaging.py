@@ -59,7 +59,8 @@ def test_the_wheel_installs_and_runs_outside_the_checkout(tmp_path: Path) -> Non
     names = zipfile.ZipFile(wheel).namelist()
     assert {n.split("/")[0] for n in names} == {"mgdata", wheel.name.split("-py3")[0] + ".dist-info"}
     for expected in ("mgdata/recipes/jar.toml", "mgdata/recipes/specs/jar.toml",
-                     "mgdata/grasps/data/jar.json", "mgdata/skeletons/jar.py", "mgdata/teleop/operator_page.html",
+                     "mgdata/grasps/data/jar.json", "mgdata/skeletons/jar.py",
+                     "mgdata/teleop/operator_page.html",
                      "mgdata/teleop/so101/so101_kinematics.xml", "mgdata/annotator/app.py"):
         assert expected in names
     listing = subprocess.run(["unzip", "-l", str(wheel)], capture_output=True, text=True, check=True).stdout
