@@ -1,7 +1,7 @@
 """Rewrite imports from the pre-issue-23 layout to the one-package layout (idempotent).
 
 Usage: python scripts/arch_renames.py FILE...   (rewrites in place; run it on code written against the old
-layout, e.g. a branch that forked before the move).
+layout, e.g. a branch that forked before the move; never on this file).
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ NAMES = {  # names that moved out of a module: (old module, name) -> new module
     ("mgdata.scenarios.store", "variant"): "mgdata.scenarios.conditions",
     ("mgdata.record.views", "export_dataset"): "mgdata.record.export",
 }
-"""Moved names, reported by ``--check`` (a sole import of one is rewritten; a mixed import is left to you)."""
+"""Names that moved out of a module: an import of one name alone is rewritten; a mixed import is left to you."""
 TOP = ("skeletons", "teleop")
 
 
@@ -76,6 +76,8 @@ def rewrite(text: str) -> str:
 def main(paths: list[str]) -> None:
     for p in paths:
         path = Path(p)
+        if path.resolve() == Path(__file__).resolve():
+            continue
         old = path.read_text()
         new = rewrite(old)
         if new != old:
