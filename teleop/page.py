@@ -27,11 +27,11 @@ import json
 import socket
 import threading
 from collections.abc import Callable, Sequence
-from pathlib import Path
+from importlib.resources import files
 
 from mgdata.errors import OutputError
 
-_HTML = Path(__file__).with_name("operator_page.html")
+_HTML = files("mgdata.teleop") / "operator_page.html"
 SEND_TIMEOUT_S = 0.5
 """A page whose socket does not take an event within this long (s) is dropped (it reconnects by itself)."""
 

@@ -11,12 +11,13 @@ Example::
 
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-MODEL_XML = Path(__file__).with_name("so101_kinematics.xml")
+MODEL_XML = Path(str(files("mgdata.teleop.so101") / "so101_kinematics.xml"))
 ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll")
 EE_SITE = "gripperframe"
 
