@@ -238,11 +238,11 @@ def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> N
     from types import SimpleNamespace
 
     from mgdata.sim.scene import build_scene
-    from skeletons.dusty import _slide_tilt
+    from mgdata.skeleton.pour import slide_tilt
 
     scene = build_scene(base_task(recipe, TASK))
     geo = scene.object_model("source").geometry
-    least = math.degrees(_slide_tilt(SimpleNamespace(scene=scene)))  # type: ignore[arg-type]
+    least = math.degrees(slide_tilt(SimpleNamespace(scene=scene)))
     least += float(recipe.params["pour_slide_margin_deg"])
     assert 90.0 < least < 150.0
     r, z = _tilt_bowl(recipe, 20.0)
