@@ -263,7 +263,7 @@ class PickAndCarry:
             raise AttemptFailed("target_fail", f"the task has no goal region for {self.obj}")
         obj = obj or ctx.object_pose(self.obj)
         riders = tuple(b for r in self.riders for b in ctx.scene.loose_bodies(r))
-        held = held_object(ctx, self.obj, tcp=tcp, riders=riders)
+        held = held_object(ctx, self.obj, tcp=tcp, pose=obj, riders=riders)
         centre_local = np.asarray(ctx.scene.object_model(self.obj).size) * np.array([0.0, 0.0, 0.5])
         centre = np.asarray(goal.pos) + np.array([ctx.variation["goal_dx"], ctx.variation["goal_dy"], 0.0])
         rng = ctx.variation.rng("carry_yaw")

@@ -97,10 +97,11 @@ class Held:
         return obj @ self.in_tcp.inverse()
 
 
-def held_object(ctx: Context, obj: str, *, tcp: Pose | None = None, riders: tuple[str, ...] = ()) -> Held:
-    """The object ``obj`` as held now: its pose relative to the measured TCP (or to ``tcp``), with the loose
-    bodies of ``riders`` carried along."""
-    in_tcp = (tcp or ctx.tcp_pose()).inverse() @ ctx.object_pose(obj)
+def held_object(ctx: Context, obj: str, *, tcp: Pose | None = None, pose: Pose | None = None,
+                riders: tuple[str, ...] = ()) -> Held:
+    """The object ``obj`` as held now: its pose (or ``pose``) relative to the measured TCP (or to ``tcp``),
+    with the loose bodies ``riders`` carried along."""
+    in_tcp = (tcp or ctx.tcp_pose()).inverse() @ (pose or ctx.object_pose(obj))
     return Held(in_tcp, Attachment(obj, in_tcp.matrix(), riders=riders))
 
 
