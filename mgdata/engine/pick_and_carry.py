@@ -261,16 +261,16 @@ class PickAndCarry:
         goal = ctx.task.goal
         if goal is None:
             raise AttemptFailed("target_fail", f"the task has no goal region for {self.obj}")
-        obj = obj or ctx.object_pose(self.obj)
+        start: Pose = obj or ctx.object_pose(self.obj)
         riders = tuple(b for r in self.riders for b in ctx.scene.loose_bodies(r))
-        held = held_object(ctx, self.obj, tcp=tcp, pose=obj, riders=riders)
+        held = held_object(ctx, self.obj, tcp=tcp, pose=start, riders=riders)
         centre_local = np.asarray(ctx.scene.object_model(self.obj).size) * np.array([0.0, 0.0, 0.5])
         centre = np.asarray(goal.pos) + np.array([ctx.variation["goal_dx"], ctx.variation["goal_dy"], 0.0])
         rng = ctx.variation.rng("carry_yaw")
         allowed = self._riders_touch(ctx)
 
         def at_goal(yaw: float) -> Pose:
-            rot = (Pose(np.zeros(3), about_z(math.radians(yaw))) @ Pose(np.zeros(3), obj.quat)).quat
+            rot = (Pose(np.zeros(3), about_z(math.radians(yaw))) @ Pose(np.zeros(3), start.quat)).quat
             return held.tcp_for(Pose(centre - Pose(np.zeros(3), rot).rotation() @ centre_local, rot))
 
         search = first_reachable(map(at_goal, ctx.param("carry_yaws_deg")), lambda target: ctx.planner.ik(
