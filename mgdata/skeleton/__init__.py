@@ -1,8 +1,8 @@
 """Layer 2's skeleton helpers: the generic idioms family skeletons share, one concept per module.
 
-==================  ===========================================================================================
-``poses``           backing off along the approach axis, straight up, yaw about the vertical, rotation about an
-                    axis, the held object's pose in the TCP frame
+==================  ==========================================================================================
+``poses``           backing off along the approach axis, straight up, yaw about the vertical, rotation about
+                    an axis, the held object's pose in the TCP frame
 ``grasp_choice``    this attempt's grasp from the gate's facts (round-robin by the draw)
 ``candidates``      the first reachable candidate (its IK solution seeds ``ctx.q_hints``)
 ``whatif``          what-if state: the planner's copy changed (or the live scene, restored), checks inside
@@ -15,5 +15,5 @@
 ``wipe``            wiping a patch off a tray's floor with a held tool (its recipe keys)
 ``pour``            pouring from a held carrier into a tray (its recipe keys)
 ``task_rng``        task-seeded random streams by name (``ctx.task_rng(name)``)
-==================  ===========================================================================================
+==================  ==========================================================================================
 """
