@@ -11,9 +11,9 @@ from mgdata.skeleton.reach import arm_path, reaches_down, reaches_grasp
 
 
 def test_reaches_down_near_the_robot_not_beyond_its_reach(ctx: Context) -> None:
-    rng = np.random.default_rng(0)
-    assert reaches_down(ctx, np.array([0.45, -0.3, 0.95]), rng, clearance=0.0)
-    assert not reaches_down(ctx, np.array([2.0, 0.0, 0.95]), rng, clearance=0.0)
+    rng, tcp = np.random.default_rng(0), ctx.commanded_tcp().pos
+    assert reaches_down(ctx, tcp - np.array([0.0, 0.0, 0.05]), rng, clearance=0.0)  # below the start pose
+    assert not reaches_down(ctx, np.array([2.0, 0.0, tcp[2]]), rng, clearance=0.0)
 
 
 def test_arm_path_stops_at_the_first_part_that_does_not_solve(ctx: Context) -> None:
