@@ -168,8 +168,9 @@ class CabinetSkeleton(FamilySkeleton):
             later = functools.cache(lambda: np.vstack(self._later_arm_path(ctx, role) or [np.zeros((0, 7))]))
 
             def leaves_clear(at: Pose) -> bool:
+                path = later()  # planned in the live scene (it syncs the planner): before the what-if
                 with planner_what_if(ctx, objects={role: at}, articulations={CABINET: self.stroke(ctx)}):
-                    if not keeps_clear(ctx, role, later(), p["clear_arm_margin"]):
+                    if not keeps_clear(ctx, role, path, p["clear_arm_margin"]):
                         return False
                     return role != TARGET or reaches_grasp(
                         ctx, at @ Pose.from_matrix(ctx.memo["grasp"].matrix()), v["grasp_standoff"],
@@ -202,8 +203,7 @@ class CabinetSkeleton(FamilySkeleton):
                                   drop=ctx.param("put_drop"), clear=ctx.param("rim_clear"),
                                   rng=ctx.variation.rng("drawer"), touch=CABINET)
             if search.found is None:
-                why = (search.failure.reason if search.failure
-                       else f"the opening is {opening.length * 100:.1f} cm")
+                why = search.failure.reason if search.failure else opening.describe()
                 raise AttemptFailed("target_fail", f"no turn of the target ({list(yaws)} deg) fits the "
                                                    f"drawer's opening and is reachable ({why})")
             ctx.memo["drawer_tcp"] = search.found

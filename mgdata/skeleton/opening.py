@@ -49,6 +49,10 @@ class Opening:
         """Its extent (m) along x."""
         return self.x[1] - self.x[0]
 
+    def describe(self) -> str:
+        """Its size, for messages."""
+        return f"the opening is {self.length * 100:.1f} cm"
+
 
 def into_opening(ctx: Context, obj: str, opening: Opening, *, yaws: Sequence[float], dy: float, drop: float,
                  clear: float, rng: np.random.Generator, touch: str) -> Search[tuple[Pose, Pose], object]:
