@@ -59,7 +59,7 @@ class JarSkeleton(FamilySkeleton):
             s.free("lid_above", "lid_above", gripper="close"),
             s.linear("lid_descend", "lid_start", gripper="close"),
             s.linear("lid_push", "lid_end", gripper="close", allow=TOUCH_JAR),
-            s.hold("lid_settle", steps=int(ctx.params["lid_settle_steps"]), gripper="close"),
+            s.hold("lid_settle", steps=ctx.params["lid_settle_steps"], gripper="close"),
             s.reverse("lid_back", of="lid_push", gripper="close", allow=TOUCH_JAR),
             *self.carry.segments(ctx),
         ]
@@ -86,13 +86,13 @@ class JarSkeleton(FamilySkeleton):
                                 "the push-from-behind closing needs it leaning towards the robot")
         half_t, length = geo["lid_thickness"] / 2.0, 2.0 * geo["lid_radius"]
         # Push at a fraction of the lid's length, but high enough that the palm clears the lid's top edge.
-        palm_low = length + float(ctx.param("lid_palm_clear")) - PALM_DEPTH
+        palm_low = length + ctx.param("lid_palm_clear") - PALM_DEPTH
         height = max(ctx.variation["lid_push_frac"] * length, palm_low)
-        depth = float(ctx.param("lid_finger_depth"))
+        depth = ctx.param("lid_finger_depth")
         if name in ("lid_above", "lid_start"):
             back_face = length * math.cos(theta0) - half_t * math.sin(theta0)  # top edge, nearest the robot
-            x = back_face - float(ctx.param("lid_push_clear")) - depth
-            z = height + (float(ctx.param("lid_descend")) if name == "lid_above" else 0.0)
+            x = back_face - ctx.param("lid_push_clear") - depth
+            z = height + (ctx.param("lid_descend") if name == "lid_above" else 0.0)
         elif name == "lid_end":
             end = math.pi / 2 - math.radians(ctx.variation["lid_push_past"])
             tip = height - FINGERTIP_REACH

@@ -26,15 +26,21 @@ from collections.abc import Sequence
 import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
-from mgdata.grasps.db import Grasp
-from mgdata.motion import MotionFailure, Pose
+from mgdata.motion import Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.skeleton import segment as s
+from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
+from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.pick_place import PickPlace
+from mgdata.skeleton.poses import about_z, backed_off, held_object, raised, yaw_of
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Knob, Param, RecipeKeys, register
 
 LID, CONTAINER = "lid", "container"
+LID_PICK = PickPlace(LID, tag="lid_", renamed={"pre_grasp": "pre"})
+"""The lid's pick: ``lid_open``, ``lid_pre``, ``lid_approach``, ``lid_grasp_settle``, ``lid_close``,
+``lid_lift``."""
 
 
 @register
@@ -61,26 +67,23 @@ class LidSkeleton(FamilySkeleton):
     lid = PickAndCarry(LID)
 
     def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
+        return [*self._cap(ctx), *self.carry.segments(ctx)]
+
+    def _cap(self, ctx: Context) -> list[s.MotionSegment]:
+        """Pick the lid, carry it over the container, seat it with a guarded move, let go, go home."""
         p = ctx.params
-        self._lid_grasp(ctx)
+        ctx.memo["lid_grasp"] = choose_grasp(ctx, LID, "lid_grasps", lambda: self.lid.reachable_grasps(ctx),
+                                             none="no valid grasp of the lid is reachable")
         ctx.memo["lid_home"] = ctx.commanded_tcp()
-        held = {"gripper": "close", "attached": LID}
         return [
-            s.gripper("lid_open", "open", steps=int(p["open_steps"])),
-            s.free("lid_pre", "lid_pre"),
-            s.linear("lid_approach", "lid_grasp", allow=(("hand", LID),)),
-            s.hold("lid_grasp_settle", steps=int(p["grasp_settle_steps"])),
-            s.gripper("lid_close", "close", steps=int(p["close_steps"])),
-            s.linear("lid_lift", "lid_lift", allow=((LID, "table"),), **held),  # type: ignore[arg-type]
-            s.free("lid_carry", "lid_above", speed=float(p["carry_speed"]), **held),  # type: ignore[arg-type]
-            s.hold("lid_steady", steps=int(p["grasp_settle_steps"]), gripper="close"),
-            s.guarded("lid_seat", "lid_seated", until=s.force(CONTAINER, float(p["seat_force"])),
-                      max_force=float(p["seat_max_force"]), speed=float(p["seat_speed"]), gripper="close",
-                      attached=LID),
-            s.gripper("lid_release", "open", steps=int(p["release_steps"])),
+            *LID_PICK.pick(p),
+            s.free("lid_carry", "lid_above", speed=p["carry_speed"], gripper="close", attached=LID),
+            s.hold("lid_steady", steps=p["grasp_settle_steps"], gripper="close"),
+            s.guarded("lid_seat", "lid_seated", until=s.force(CONTAINER, p["seat_force"]),
+                      max_force=p["seat_max_force"], speed=p["seat_speed"], gripper="close", attached=LID),
+            s.gripper("lid_release", "open", steps=p["release_steps"]),
             s.linear("lid_retreat", "lid_retreat", allow=(("hand", LID),)),
             s.free("lid_home", "lid_home", riders=(LID,)),
-            *self.carry.segments(ctx),
         ]
 
     def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
@@ -102,22 +105,10 @@ class LidSkeleton(FamilySkeleton):
             return self._lid_target(name, ctx)
         return self.carry.resolve(name, ctx) or super().resolve(name, ctx)
 
-    def _lid_grasp(self, ctx: Context) -> Grasp:
-        ids = ctx.task.gate.get("lid_grasps")
-        grasps = self.lid.reachable_grasps(ctx) if ids is None else tuple(
-            g for g in ctx.grasps.get(LID, ()) if g.id in ids)
-        if not grasps:
-            raise AttemptFailed("no_grasp", "no valid grasp of the lid is reachable")
-        grasp = grasps[ctx.variation.pick(len(grasps))]
-        ctx.memo["lid_grasp"] = grasp
-        return grasp
-
     def _lid_target(self, name: str, ctx: Context) -> Pose:
         if name in ("lid_pre", "lid_grasp"):
             grasp = Pose.from_matrix(ctx.object_pose(LID).matrix() @ ctx.memo["lid_grasp"].matrix())
-            if name == "lid_grasp":
-                return grasp
-            return Pose(grasp.pos - grasp.rotation()[:, 2] * ctx.variation["grasp_standoff"], grasp.quat)
+            return grasp if name == "lid_grasp" else backed_off(grasp, ctx.variation["grasp_standoff"])
         if name == "lid_home":
             return ctx.memo["lid_home"]
         tcp = ctx.commanded_tcp()
@@ -125,16 +116,15 @@ class LidSkeleton(FamilySkeleton):
             low = LowestPoint(ctx.scene.model, ctx.scene.object_geom_ids(LID))(ctx.scene.data)
             cont = ctx.object_pose(CONTAINER)
             rim = cont.pos[2] + float(ctx.scene.object_model(CONTAINER).size[2])
-            rise = max(float(ctx.variation["lift_height"]), rim + ctx.variation["lid_hover"] - low)
-            return Pose(tcp.pos + np.array([0.0, 0.0, rise]), tcp.quat)
+            return raised(tcp, max(ctx.variation["lift_height"], rim + ctx.variation["lid_hover"] - low))
         if name == "lid_retreat":
-            return Pose(tcp.pos - tcp.rotation()[:, 2] * ctx.variation["grasp_standoff"], tcp.quat)
+            return backed_off(tcp, ctx.variation["grasp_standoff"])
         if name in ("lid_above", "lid_seated"):
-            tcp_t_lid = ctx.tcp_pose().inverse() @ ctx.object_pose(LID)
+            tcp_t_lid = held_object(ctx, LID).in_tcp
             plug = float(ctx.scene.object_model(LID).geometry["plug_depth"])
             if name == "lid_seated":  # straight down from where the lid is now: keep the carry's turn
-                down = -float(ctx.param("seat_overshoot"))
-                return self._lid_over(ctx, tcp_t_lid, down, self._yaw(ctx.object_pose(LID)))
+                yaw = yaw_of(ctx.object_pose(LID))
+                return self._lid_over(ctx, tcp_t_lid, -ctx.param("seat_overshoot"), yaw)
             up = ctx.variation["lid_hover"] + plug
             target = self._over_container(ctx, tcp_t_lid, up)
             if target is None:
@@ -145,26 +135,14 @@ class LidSkeleton(FamilySkeleton):
     def _over_container(self, ctx: Context, tcp_t_lid: Pose, up: float) -> Pose | None:
         """TCP pose holding the lid level on the container's axis, ``up`` m above its seat, turned about the
         vertical by the first of ``carry_yaws_deg`` the arm reaches (the lid is round)."""
-        rng = ctx.variation.rng("lid_yaw")
-        base = self._yaw(ctx.object_pose(LID))
-        for turn in ctx.param("carry_yaws_deg"):
-            target = self._lid_over(ctx, tcp_t_lid, up, base + math.radians(turn))
-            try:
-                ctx.planner.ik(target, ctx.q_cmd, rng)
-            except MotionFailure:
-                continue
-            return target
-        return None
+        rng, base = ctx.variation.rng("lid_yaw"), yaw_of(ctx.object_pose(LID))
+        turns = (self._lid_over(ctx, tcp_t_lid, up, base + math.radians(turn))
+                 for turn in ctx.param("carry_yaws_deg"))
+        return first_reachable(turns, lambda target: ctx.planner.ik(target, ctx.q_cmd, rng)).found
 
     @staticmethod
     def _lid_over(ctx: Context, tcp_t_lid: Pose, up: float, yaw: float) -> Pose:
         cont = ctx.object_pose(CONTAINER)
         seat = float(ctx.scene.object_model(CONTAINER).geometry["seat_height"])
         pos = cont.pos + cont.rotation()[:, 2] * (seat + up)
-        lid = Pose(pos, np.array([math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]))
-        return lid @ tcp_t_lid.inverse()
-
-    @staticmethod
-    def _yaw(pose: Pose) -> float:
-        rot = pose.rotation()
-        return math.atan2(rot[1, 0], rot[0, 0])
+        return Pose(pos, about_z(yaw)) @ tcp_t_lid.inverse()

@@ -26,18 +26,22 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import mujoco
 import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
-from mgdata.motion import AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.motion import AllowedContacts, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.world import TABLE_TOP_Z
 from mgdata.skeleton import segment as s
+from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
+from mgdata.skeleton.poses import about_z, held_object, horizontal_unit, raised
+from mgdata.skeleton.reach import reaches_down
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Param, RecipeKeys, register
+from mgdata.skeleton.spots import Footprint, clear_of, footprints, in_box, ring
+from mgdata.skeleton.whatif import planner_what_if
 from mgdata.tasks.placer import footprint_radius
 
 TARGET = "target"
@@ -68,17 +72,21 @@ class StackSkeleton(FamilySkeleton):
 
     # -- segments ----------------------------------------------------------------------------------------
     def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
-        p = ctx.params
         ctx.memo["pile_xy"] = self._pile_spot(ctx, ctx.variation.rng("pile"))
         if ctx.memo["pile_xy"] is None:
             raise AttemptFailed("target_fail", "no reachable spot for the pile beside the pack")
         segs: list[s.MotionSegment] = []
         for pick in self._unstack(ctx):
-            carry = s.free(pick.name("carry"), pick.name("over_pile"), gripper="close", attached=pick.obj,
-                           speed=float(p["carry_speed"]))
-            segs += [*pick.pick_segments(ctx), carry,
-                     *pick.place_segments(pick.name("on_pile"), retreat_steps=int(p["release_steps"]))]
+            segs += self._onto_pile(ctx, pick)
         return [*segs, *self._target().segments(ctx)]
+
+    @staticmethod
+    def _onto_pile(ctx: Context, pick: PickAndCarry) -> list[s.MotionSegment]:
+        """Pick one object off the stack, carry it over the pile, put it on top, release it, back off."""
+        carry = s.free(pick.name("carry"), pick.name("over_pile"), gripper="close", attached=pick.obj,
+                       speed=ctx.params["carry_speed"])
+        return [*pick.pick_segments(ctx), carry,
+                *pick.place_segments(pick.name("on_pile"), retreat_steps=ctx.params["release_steps"])]
 
     def resolve(self, name: str, ctx: Context) -> Pose:
         if name.endswith("pre_grasp"):
@@ -131,9 +139,7 @@ class StackSkeleton(FamilySkeleton):
         """A pick starts: judge the one before (multi-grab), then remember where everything is."""
         if self._moved_others(ctx):
             ctx.memo["multi_grab"] = True
-        picked = name[: -len("pre_grasp")]
-        obj = next((p.obj for p in self._unstack(ctx) if p.tag == picked), TARGET)
-        ctx.memo["picking"] = obj
+        ctx.memo["picking"] = next((p.obj for p in self._unstack(ctx) if p.name("pre_grasp") == name), TARGET)
         ctx.memo["pick_start"] = {n: ctx.object_pose(n).pos[:2].copy() for n in _objects(ctx)}
 
     @staticmethod
@@ -141,7 +147,7 @@ class StackSkeleton(FamilySkeleton):
         start = ctx.memo.get("pick_start")
         if start is None:
             return False
-        limit = float(ctx.param("multi_grab_distance"))
+        limit = ctx.param("multi_grab_distance")
         return any(float(np.linalg.norm(ctx.object_pose(n).pos[:2] - xy)) > limit
                    for n, xy in start.items() if n != ctx.memo["picking"])
 
@@ -155,72 +161,53 @@ class StackSkeleton(FamilySkeleton):
         if name == pick.name("over_pile") or key not in ctx.memo:
             ctx.memo[key] = self._place_pose(pick.obj, ctx)
         place: Pose = ctx.memo[key]
-        if name == pick.name("on_pile"):
-            return place
-        return Pose(place.pos + np.array([0.0, 0.0, float(ctx.param("pile_approach"))]), place.quat)
+        return place if name == pick.name("on_pile") else raised(place, ctx.param("pile_approach"))
 
-    def _place_pose(self, obj: str, ctx: Context) -> Pose:
+    @staticmethod
+    def _place_pose(obj: str, ctx: Context) -> Pose:
         scene = ctx.scene
         piled = [n for n in ctx.memo.setdefault("piled", []) if n != obj]
         ctx.memo["piled"] = [*piled, obj]
         if piled:
-            top = piled[-1]
-            xy = ctx.object_pose(top).pos[:2]
+            xy = ctx.object_pose(piled[-1]).pos[:2]
             base = max(scene.object_pose(n)[0][2] + scene.object_model(n).size[2] for n in piled)
         else:
             xy, base = np.asarray(ctx.memo["pile_xy"]), TABLE_TOP_Z
-        tcp, pose = ctx.tcp_pose(), ctx.object_pose(obj)
+        pose, held = ctx.object_pose(obj), held_object(ctx, obj)
         low = LowestPoint(scene.model, scene.object_geom_ids(obj))(scene.data)
-        tcp_t_obj = tcp.inverse() @ pose
-        held = Attachment(obj, tcp_t_obj.matrix())
-        z = pose.pos[2] + (base + float(ctx.param("place_gap")) - low)
+        z = pose.pos[2] + (base + ctx.param("place_gap") - low)
         rng = ctx.variation.rng(f"pile/{obj}")
-        first = None
-        for yaw in ctx.param("carry_yaws_deg"):
-            half = math.radians(yaw) / 2.0
-            turn = Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)])
-            target_obj = Pose(np.array([xy[0], xy[1], z]), (turn @ Pose(np.zeros(3), pose.quat)).quat)
-            target = target_obj @ tcp_t_obj.inverse()
-            first = first or target
-            try:
-                ctx.planner.ik(target, ctx.q_cmd, rng, collision_free=True, attached=held,
-                               allowed=AllowedContacts(((ROOT_BODY, obj),)))
-            except MotionFailure:
-                continue
-            return target
-        assert first is not None
-        return first
+
+        def on_pile(yaw: float) -> Pose:
+            turned = Pose(np.zeros(3), about_z(math.radians(yaw))) @ Pose(np.zeros(3), pose.quat)
+            return held.tcp_for(Pose(np.array([xy[0], xy[1], z]), turned.quat))
+
+        return first_reachable(map(on_pile, ctx.param("carry_yaws_deg")), lambda target: ctx.planner.ik(
+            target, ctx.q_cmd, rng, collision_free=True, attached=held.attachment,
+            allowed=AllowedContacts(((ROOT_BODY, obj),)))).found_or_first
 
     def _pile_spot(self, ctx: Context, rng: np.random.Generator | None) -> np.ndarray | None:
         """The pile's centre (xy, m): see the module docstring. ``rng`` None: the first spot in ring order."""
         stack, scene = _stack(ctx), ctx.scene
-        goal = ctx.task.goal
         target_xy = ctx.object_pose(TARGET).pos[:2]
         r_pack = max(footprint_radius(ctx.task.object(n).model) for n in (TARGET, *stack))
         r_pile = max(footprint_radius(ctx.task.object(n).model) for n in stack)
-        gap = float(ctx.param("pile_gap"))
-        (x0, x1), (y0, y1) = ctx.param("pile_x"), ctx.param("pile_y")
-        others = [(ctx.object_pose(n).pos[:2], footprint_radius(ctx.task.object(n).model))
-                  for n in _objects(ctx) if n not in (TARGET, *stack)]
-        r_carry = footprint_radius(ctx.task.object(TARGET).model)
-        height = sum(scene.object_model(n).size[2] for n in stack) + TABLE_TOP_Z + float(
-            ctx.param("reach_standoff"))
-        n_bear = int(ctx.param("pile_bearings"))
+        gap = ctx.param("pile_gap")
+        others = footprints(ctx, [n for n in _objects(ctx) if n not in (TARGET, *stack)])
+        if ctx.task.goal is not None:  # the target is carried there: keep the pile clear of it too
+            others.append(Footprint(np.asarray(ctx.task.goal.pos[:2]),
+                                    footprint_radius(ctx.task.object(TARGET).model)))
+        height = (sum(scene.object_model(n).size[2] for n in stack) + TABLE_TOP_Z
+                  + ctx.param("reach_standoff"))
         radial = target_xy / max(float(np.linalg.norm(target_xy)), 1e-9)  # away from the robot's base
-        hand = [_unit_xy((ctx.object_pose(TARGET).matrix() @ g.matrix())[:3, 1]) for g in ctx.grasps[TARGET]]
-        for ring in range(int(ctx.param("pile_rings"))):
-            d = r_pack + r_pile + gap + ring * float(ctx.param("pile_ring_step"))
-            spots = []
-            for k in range(n_bear):
-                phi = 2.0 * math.pi * k / n_bear
-                xy = target_xy + d * np.array([math.cos(phi), math.sin(phi)])
-                if not (x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1):
-                    continue
-                if any(np.linalg.norm(xy - o) < r_pile + r + gap for o, r in others):
-                    continue
-                if goal is not None and np.linalg.norm(xy - goal.pos[:2]) < r_pile + r_carry + gap:
-                    continue
-                spots.append(xy)
+        target = ctx.object_pose(TARGET).matrix()
+        hand = [horizontal_unit((target @ g.matrix())[:3, 1]) for g in ctx.grasps[TARGET]]
+        low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
+        box_x, box_y = ctx.param("pile_x"), ctx.param("pile_y")
+        for k in range(ctx.param("pile_rings")):
+            d = r_pack + r_pile + gap + k * ctx.param("pile_ring_step")
+            spots = [xy for xy in ring(target_xy, d, ctx.param("pile_bearings"))
+                     if clear_of(xy, r_pile, others, gap) and in_box(xy, box_x, box_y)]
             order = list(range(len(spots)))
             if rng is not None:
                 rng.shuffle(order)
@@ -232,9 +219,9 @@ class StackSkeleton(FamilySkeleton):
             # beside the pack: a pile in front of it is in the arm's way to the target, one behind it puts
             # the forearm over the stack while placing
             order.sort(key=lambda i: (any(along(i, c) for c in hand), along(i, radial)))
-            low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
             for i in order:
-                if (all(self._reaches_down(ctx, spots[i], z) for z in (low, height))
+                if (all(reaches_down(ctx, np.array([*spots[i], z]), ctx.task_rng("pile_reach_down"),
+                                     clearance=ctx.param("pile_arm_clearance")) for z in (low, height))
                         and self._target_reachable_beside(ctx, spots[i])):
                     return spots[i]
         return None
@@ -243,45 +230,12 @@ class StackSkeleton(FamilySkeleton):
     def _target_reachable_beside(ctx: Context, xy: np.ndarray) -> bool:
         """Is a grasp of the target reachable with the whole stack piled at ``xy``? Checked in the planner's
         private copy of the scene, the stacked objects moved there (the live scene is not touched)."""
-        scene = ctx.scene
-        m = scene.model
-        piled = mujoco.MjData(m)
-        mujoco.mj_copyData(piled, m, scene.data)
-        z = TABLE_TOP_Z
+        piled, z = {}, TABLE_TOP_Z
         for name in reversed(_stack(ctx)):  # the top one goes first, at the bottom of the pile
-            adr = m.jnt_qposadr[m.body_jntadr[scene.object_body(name)]]
-            piled.qpos[adr:adr + 3] = (xy[0], xy[1], z)
-            z += scene.object_model(name).size[2]
-        mujoco.mj_kinematics(m, piled)
-        ctx.planner.sync(piled)
-        try:
+            piled[name] = np.array([xy[0], xy[1], z])
+            z += ctx.scene.object_model(name).size[2]
+        with planner_what_if(ctx, objects=piled):
             return bool(PickAndCarry(TARGET).reachable_grasps(ctx))
-        finally:
-            ctx.planner.sync(scene.data)
-
-    @staticmethod
-    def _reaches_down(ctx: Context, xy: np.ndarray, z: float) -> bool:
-        """Does a straight-down hand (either roll about the vertical) reach ``z`` above ``xy`` with the arm
-        ``pile_arm_clearance`` clear of every object (the pack still standing; the table may be near: a low
-        object is placed close to it)?"""
-        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9171]))
-        planner = ctx.planner
-        for quat in ((0.0, 1.0, 0.0, 0.0), (0.0, 0.7071067811865476, 0.7071067811865476, 0.0)):
-            try:
-                q = planner.ik(Pose(np.array([xy[0], xy[1], z]), quat), ctx.q_cmd, rng)
-            except MotionFailure:
-                continue
-            planner.checker.configure(AllowedContacts(((ROOT_BODY, "table"),)), None,
-                                      float(ctx.param("pile_arm_clearance")))
-            if planner.checker.valid(q):
-                return True
-        return False
-
-
-def _unit_xy(v: np.ndarray) -> np.ndarray:
-    """The horizontal part of ``v``, unit length (zero if ``v`` is vertical)."""
-    n = float(np.hypot(v[0], v[1]))
-    return np.zeros(2) if n < 1e-9 else np.array([v[0], v[1]]) / n
 
 
 def _objects(ctx: Context) -> list[str]:
@@ -289,6 +243,6 @@ def _objects(ctx: Context) -> list[str]:
 
 
 def _stack(ctx: Context) -> tuple[str, ...]:
-    """The stacked objects, bottom first (``stack_0``, ``stack_1`` …)."""
-    names = [o.name for o in ctx.task.objects if o.name.startswith(STACK)]
-    return tuple(sorted(names, key=lambda n: int(n[len(STACK):])))
+    """The stacked objects, bottom first (``stack_0``, ``stack_1`` …: the layout places each on the one
+    before, in the task's object order)."""
+    return tuple(o.name for o in ctx.task.objects if o.name.startswith(STACK))

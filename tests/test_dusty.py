@@ -230,19 +230,19 @@ def _tilt_bowl(recipe: Recipe, tilt_deg: float) -> tuple[float, float]:
 
 
 def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> None:
-    """The pour's least tilt (:func:`_slide_tilt` plus the recipe's margin: the bowl's lowest wall steeper
-    than the friction angle) against physics: there the food has left the slowly turned bowl, while at 20°
-    it stays in (the rig holds food). The static bound is conservative: turned like this, the candy
-    already slid out at 45° (it stayed at 30°, or not when turned faster: its slide down the floor
+    """The pour's least tilt (:func:`mgdata.skeleton.pour.slide_tilt` plus the recipe's margin: the bowl's
+    lowest wall steeper than the friction angle) against physics: there the food has left the slowly turned
+    bowl, while at 20° it stays in (the rig holds food). The static bound is conservative: turned like this,
+    the candy already slid out at 45° (it stayed at 30°, or not when turned faster: its slide down the floor
     carries it over the low rim)."""
     from types import SimpleNamespace
 
     from mgdata.sim.scene import build_scene
-    from mgdata.skeletons.dusty import _slide_tilt
+    from mgdata.skeleton.pour import slide_tilt
 
     scene = build_scene(base_task(recipe, TASK))
     geo = scene.object_model("source").geometry
-    least = math.degrees(_slide_tilt(SimpleNamespace(scene=scene)))  # type: ignore[arg-type]
+    least = math.degrees(slide_tilt(SimpleNamespace(scene=scene)))
     least += float(recipe.params["pour_slide_margin_deg"])
     assert 90.0 < least < 150.0
     r, z = _tilt_bowl(recipe, 20.0)

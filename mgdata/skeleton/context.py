@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mgdata.motion.types import JointTrajectory, Pose
+from mgdata.skeleton.task_rng import task_rng
 
 if TYPE_CHECKING:
     from mgdata.grasps.db import Grasp
@@ -63,6 +64,11 @@ class Context:
         if name not in self.task.params:
             raise RecipeError(f"recipes/{self.task.family}.toml: [params] has no key {name!r}")
         return self.task.params[name]
+
+    def task_rng(self, name: str) -> np.random.Generator:
+        """A generator for purpose ``name`` seeded by the task alone (:mod:`mgdata.skeleton.task_rng`): the
+        gate and every attempt of the task draw the same stream."""
+        return task_rng(self.task.seed, name)
 
     def object_pose(self, name: str) -> Pose:
         """The world pose of an object instance's root body, from the live state."""

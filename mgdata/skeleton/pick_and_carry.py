@@ -29,11 +29,15 @@ import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
 from mgdata.grasps.db import Grasp
-from mgdata.motion import NO_CONTACTS, AllowedContacts, Attachment, MotionFailure, Pose
+from mgdata.motion import NO_CONTACTS, AllowedContacts, MotionFailure, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.skeleton import segment as s
+from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
+from mgdata.skeleton.grasp_choice import usable_grasps
+from mgdata.skeleton.pick_place import PickPlace
+from mgdata.skeleton.poses import about_z, backed_off, held_object, raised
 from mgdata.skeleton.skeleton import Infeasible
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
 
@@ -94,6 +98,10 @@ class PickAndCarry:
     tag: str = ""
     support: str = "table"
 
+    @property
+    def _steps(self) -> PickPlace:
+        return PickPlace(self.obj, self.tag, self.riders, self.support)
+
     def name(self, base: str) -> str:
         """The segment, runtime-target or memo name ``base`` of this pick (prefixed by ``tag``)."""
         return f"{self.tag}{base}"
@@ -105,20 +113,9 @@ class PickAndCarry:
 
     def pick_segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Open, pre-grasp, approach, settle, close, lift to clearance."""
-        p = ctx.params
         if not self.tag:
             self.choose_grasp(ctx)
-        touch = (("hand", self.obj),)
-        n = self.name
-        return [
-            s.gripper(n("open"), "open", steps=int(p["open_steps"])),
-            s.free(n("pre_grasp"), n("pre_grasp"), riders=self.riders),
-            s.linear(n("approach"), n("grasp"), allow=touch, riders=self.riders),
-            s.hold(n("grasp_settle"), steps=int(p["grasp_settle_steps"])),
-            s.gripper(n("close"), "close", steps=int(p["close_steps"])),
-            s.linear(n("lift"), n("lift"), gripper="close", attached=self.obj, riders=self.riders,
-                     allow=((self.obj, self.support),)),
-        ]
+        return self._steps.pick(ctx.params)
 
     def carry_segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Carry the held object over the goal, lower it in and hold it still."""
@@ -137,13 +134,7 @@ class PickAndCarry:
     def place_segments(self, target: str, *, retreat_steps: int) -> list[s.MotionSegment]:
         """Lower the held object in a straight line to the runtime target ``target`` (a TCP pose; carry it
         above the spot first), release it and back off along the approach axis by the pre-grasp standoff."""
-        n = self.name
-        return [
-            s.linear(n("place"), target, gripper="close", attached=self.obj, riders=self.riders,
-                     allow=((self.obj, "table"),)),
-            s.gripper(n("release"), "open", steps=retreat_steps),
-            s.linear(n("retreat"), n("retreat"), allow=(("hand", self.obj),), riders=self.riders),
-        ]
+        return self._steps.place(target, retreat_steps=retreat_steps)
 
     # -- runtime targets -------------------------------------------------------------------------------------
     def resolve(self, name: str, ctx: Context) -> Pose | None:
@@ -158,10 +149,9 @@ class PickAndCarry:
             grasp = self._grasp_pose(ctx)
             if name == "grasp":
                 return grasp
-            return Pose(grasp.pos - grasp.rotation()[:, 2] * ctx.variation["grasp_standoff"], grasp.quat)
+            return backed_off(grasp, ctx.variation["grasp_standoff"])
         if name == "lift":
-            tcp = ctx.commanded_tcp()
-            return Pose(tcp.pos + np.array([0.0, 0.0, self._lift(ctx)]), tcp.quat)
+            return raised(ctx.commanded_tcp(), self._lift(ctx))
         if name in ("over_goal", "goal"):
             goal = ctx.memo.get(self.name("goal_tcp")) or self._goal_target(ctx)
             ctx.memo[self.name("goal_tcp")] = goal
@@ -171,8 +161,7 @@ class PickAndCarry:
             z = max(goal.pos[2] + float(ctx.param("goal_approach")), tcp.pos[2])
             return Pose(np.array([goal.pos[0], goal.pos[1], z]), goal.quat)
         if name == "retreat":
-            tcp = ctx.commanded_tcp()
-            return Pose(tcp.pos - tcp.rotation()[:, 2] * ctx.variation["grasp_standoff"], tcp.quat)
+            return backed_off(ctx.commanded_tcp(), ctx.variation["grasp_standoff"])
         return None
 
     # -- grasps ----------------------------------------------------------------------------------------------
@@ -203,13 +192,13 @@ class PickAndCarry:
         touch = self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)) + allowed
         planner.checker.configure(touch, None, float(ctx.param("grasp_clearance")))
         standoff = float(ctx.param("reach_standoff"))
-        rng = np.random.default_rng(np.random.SeedSequence([ctx.task.seed, 0x9A5]))
+        rng = ctx.task_rng("grasp_reach")
         out = []
         for grasp in ctx.grasps.get(self.obj, ()):
             if self.grasp_filter and grasp.approach not in self.grasp_filter:
                 continue
             pose = Pose.from_matrix(pose_obj @ grasp.matrix())
-            pre = Pose(pose.pos - pose.rotation()[:, 2] * standoff, pose.quat)
+            pre = backed_off(pose, standoff)
             try:
                 q_pre = planner.ik(pre, ctx.q_cmd, rng)
                 q = planner.ik(pose, q_pre, rng)
@@ -237,14 +226,14 @@ class PickAndCarry:
         return {f"{self.tag}grasps": tuple(g.id for g in reachable)}
 
     def _reachable(self, ctx: Context) -> tuple[Grasp, ...]:
-        ids = ctx.task.gate.get(f"{self.tag}grasps")
-        if ids is None:
+        """The gate's grasps (fact ``{tag}grasps``), else those reachable now (computed once)."""
+        def now() -> tuple[Grasp, ...]:
             key = f"{self.tag}reachable/{self.obj}"
             if key not in ctx.memo:
                 ctx.memo[key] = self.reachable_grasps(ctx)
             return ctx.memo[key]
-        by_id = {g.id: g for g in ctx.grasps.get(self.obj, ())}
-        return tuple(by_id[i] for i in ids if i in by_id)
+
+        return usable_grasps(ctx, self.obj, f"{self.tag}grasps", now)
 
     def _grasp_pose(self, ctx: Context) -> Pose:
         grasp: Grasp = ctx.memo[self.name("grasp")]
@@ -272,29 +261,21 @@ class PickAndCarry:
         goal = ctx.task.goal
         if goal is None:
             raise AttemptFailed("target_fail", f"the task has no goal region for {self.obj}")
-        tcp = tcp or ctx.tcp_pose()
-        obj = obj or ctx.object_pose(self.obj)
-        tcp_t_obj = tcp.inverse() @ obj
+        start: Pose = obj or ctx.object_pose(self.obj)
         riders = tuple(b for r in self.riders for b in ctx.scene.loose_bodies(r))
-        held = Attachment(self.obj, tcp_t_obj.matrix(), riders=riders)
+        held = held_object(ctx, self.obj, tcp=tcp, pose=start, riders=riders)
         centre_local = np.asarray(ctx.scene.object_model(self.obj).size) * np.array([0.0, 0.0, 0.5])
         centre = np.asarray(goal.pos) + np.array([ctx.variation["goal_dx"], ctx.variation["goal_dy"], 0.0])
         rng = ctx.variation.rng("carry_yaw")
         allowed = self._riders_touch(ctx)
-        first = None
-        for yaw in ctx.param("carry_yaws_deg"):
-            half = math.radians(yaw) / 2.0
-            turn = Pose(np.zeros(3), [math.cos(half), 0.0, 0.0, math.sin(half)])
-            rot = (turn @ Pose(np.zeros(3), obj.quat)).quat
-            target_obj = Pose(centre - Pose(np.zeros(3), rot).rotation() @ centre_local, rot)
-            target = target_obj @ tcp_t_obj.inverse()
-            first = first or target
-            try:
-                ctx.planner.ik(target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=held)
-            except MotionFailure:
-                continue
-            return target
-        return None if strict else first
+
+        def at_goal(yaw: float) -> Pose:
+            rot = (Pose(np.zeros(3), about_z(math.radians(yaw))) @ Pose(np.zeros(3), start.quat)).quat
+            return held.tcp_for(Pose(centre - Pose(np.zeros(3), rot).rotation() @ centre_local, rot))
+
+        search = first_reachable(map(at_goal, ctx.param("carry_yaws_deg")), lambda target: ctx.planner.ik(
+            target, ctx.q_cmd, rng, collision_free=True, allowed=allowed, attached=held.attachment))
+        return search.found if strict else search.found_or_first
 
     # -- contacts --------------------------------------------------------------------------------------------
     def _riders_touch(self, ctx: Context) -> AllowedContacts:
