@@ -55,7 +55,7 @@ NAMES = {  # names that moved out of a module: (old module, name) -> new module
     ("mgdata.scenarios.store", "variant"): "mgdata.scenarios.conditions",
     ("mgdata.record.views", "export_dataset"): "mgdata.record.export",
 }
-"""Names that moved out of a module: an import of one name alone is rewritten; a mixed import is left to you."""
+"""Names that moved out of a module: an import of that name alone is rewritten; a mixed import is yours."""
 TOP = ("skeletons", "teleop")
 
 

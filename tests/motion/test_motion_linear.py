@@ -107,10 +107,10 @@ def test_a_fast_but_continuous_passage_is_refined_not_a_discontinuity() -> None:
     import dataclasses
 
     import mujoco
-    from motion_scenes import home_data, scene
 
     from mgdata.motion import MotionConfig
     from mgdata.sim.robot import TCP_SITE
+    from tests.helpers.motion_scenes import home_data, scene
 
     model = scene(wall=False)
     config = MotionConfig()
