@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from mgdata.engine.gate import SuccessGate
@@ -36,12 +37,20 @@ from mgdata.engine.runner import EpisodeRunner
 from mgdata.engine.success import SuccessCheck
 from mgdata.errors import SimulationError
 from mgdata.evaluate.client import PolicyClient, PolicyTimeout
-from mgdata.evaluate.conventions import Observation, check_cameras, decode_actions, default_cameras, encode
+from mgdata.evaluate.conventions import (
+    ENVIRONMENT_STATE,
+    Observation,
+    check_cameras,
+    decode_actions,
+    default_cameras,
+    encode,
+)
 from mgdata.evaluate.restore import restore_scenario
 from mgdata.record.episode import Frame
 from mgdata.record.recorder import Recorder
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
+from mgdata.sim.environment_state import EnvironmentLayout
 from mgdata.sim.renderer import CameraRig
 
 ENDS = ("success", "timeout", "sim_diverged", "policy_timeout", "bad_action")
@@ -125,7 +134,7 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     restored = restore_scenario(job.scenarios / job.scenario)
     scene, meta, recipe = restored.scene, restored.meta, restored.recipe
     available = list(meta["cameras"])
-    cameras = settings.cameras or default_cameras(settings.convention, available)
+    cameras = default_cameras(settings.convention, available) if settings.cameras is None else settings.cameras
     check_cameras(settings.convention, cameras, available)
     episode_seed = rollout_seed(job.seed, job.scenario)
     controller = JointController(scene)
@@ -137,7 +146,9 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                            stop_on_violation=False)
     ctrl = scene.data.ctrl[robot.arm_actuator_ids(scene.model)]
     command = np.array([*ctrl[:7], 1.0 if scene.gripper.is_closed(ctrl[7]) else 0.0], dtype=np.float32)
-    rig = CameraRig(scene, cameras, int(meta["image_size"]))
+    shown = cameras or (available[0],)  # a state-only policy's rollout video still shows a camera
+    rig = CameraRig(scene, shown, int(meta["image_size"])) if cameras or settings.video_dir else None
+    env_layout: EnvironmentLayout | None = None
     video: list[dict[str, np.ndarray]] = []
     end: str | None = None
     t_success: int | None = None
@@ -146,13 +157,20 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         runner.start()
         with PolicyClient(settings.policy, timeout=settings.timeout_s,
                           connect_timeout=settings.connect_timeout_s) as client:
+            if settings.convention == "state" or ENVIRONMENT_STATE in client.metadata.get("inputs", ()):
+                env_layout = EnvironmentLayout(scene.model)
             while end is None:
-                images = rig.render() if not chunk or settings.video_dir is not None else {}
+                render = rig is not None and (settings.video_dir is not None or (bool(cameras) and not chunk))
+                images = rig.render() if render else {}
                 if settings.video_dir is not None:
                     video.append(images)
                 if not chunk:
+                    env = None
+                    if env_layout is not None:
+                        mujoco.mj_kinematics(scene.model, scene.data)  # positions of this very state
+                        env = env_layout.compute(scene.model, scene.data)
                     obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
-                                      episode_seed, runner.steps, job.scenario)
+                                      episode_seed, runner.steps, job.scenario, env)
                     try:
                         reply = client.infer(encode(settings.convention, cameras, obs))
                     except PolicyTimeout:
@@ -177,7 +195,8 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         t_engage = recorder.t_engage
     finally:
         recorder.discard()
-        rig.close()
+        if rig is not None:
+            rig.close()
     if settings.video_dir is not None:
         from mgdata.evaluate.video import write_rollout_video
 
