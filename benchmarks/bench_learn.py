@@ -41,6 +41,11 @@ REPO = Path(__file__).resolve().parent.parent
 MGDATA = [sys.executable, "-c", "import sys; from mgdata.cli import main; sys.argv[0] = 'mgdata'; main()"]
 
 
+def _pythonpath() -> str:
+    """This checkout first (the LeRobot environment serves mgdata's module from it), then what was set."""
+    return os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)
+
+
 def log(msg: str) -> None:
     print(f"[bench_learn {time.strftime('%H:%M:%S')}] {msg}", flush=True)
 
@@ -101,16 +106,12 @@ def task0_models(family: str) -> dict[str, str]:
     return {o.name: o.model for o in base_task(load_recipe(family), 0).objects}
 
 
-def loss_curve(train_log: Path) -> list[tuple[int, float]]:
-    """(step, loss) pairs of lerobot-train's log lines (``step:200 … loss:0.123``)."""
-    out = []
-    for line in train_log.read_text(errors="replace").splitlines():
-        m = re.search(r"step:(\d+[KM]?) .*?loss:([0-9.]+)", line)
-        if m:
-            s = m.group(1)
-            step = int(float(s[:-1]) * (1000 if s[-1] == "K" else 1_000_000)) if s[-1] in "KM" else int(s)
-            out.append((step, float(m.group(2))))
-    return out
+def loss_curve(train_log: Path, log_freq: int) -> list[tuple[int, float]]:
+    """(step, loss) of lerobot-train's log lines (``step:2K … loss:0.123``; LeRobot rounds the step, so the
+    k-th line is taken as step ``k * log_freq``)."""
+    losses = [float(m.group(1)) for line in train_log.read_text(errors="replace").splitlines()
+              if (m := re.search(r"step:\S+ .*?loss:([0-9.]+)", line))]
+    return [((k + 1) * log_freq, loss) for k, loss in enumerate(losses)]
 
 
 def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dict]:
@@ -120,22 +121,25 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
     if args.reuse and ckpt.is_dir():
         return ckpt, json.loads((out.parent / f"{out.name}.json").read_text())
     shutil.rmtree(out, ignore_errors=True)
+    log_freq = max(1, min(args.steps // 40, 100))
     cmd = [args.lerobot_python, "-m", "lerobot.scripts.lerobot_train",
            f"--dataset.repo_id=mgdata/{dataset.name}", f"--dataset.root={dataset}",
            "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
            "--wandb.enable=false", "--policy.pretrained_backbone_weights=null",
            f"--policy.dim_model={args.dim_model}", f"--policy.dim_feedforward={4 * args.dim_model}",
            f"--policy.n_encoder_layers={args.encoder_layers}", "--policy.n_decoder_layers=1",
-           "--policy.use_vae=false", f"--policy.chunk_size={args.chunk}", f"--policy.n_action_steps={args.chunk}",
+           "--policy.use_vae=false", f"--policy.chunk_size={args.chunk}",
+           f"--policy.n_action_steps={args.chunk}",
            f"--policy.optimizer_lr={args.lr}", f"--batch_size={args.batch}", f"--steps={args.steps}",
-           f"--save_freq={max(1, args.steps // 4)}", f"--log_freq={max(1, args.steps // 40)}", f"--num_workers={args.loader_workers}",
+           f"--save_freq={max(1, min(args.steps // 4, 500))}", f"--log_freq={log_freq}",
+           f"--num_workers={args.loader_workers}",
            f"--seed={args.seed}", f"--output_dir={out}"]
     env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled",
-           "OMP_NUM_THREADS": str(args.torch_threads), "PYTHONPATH": str(REPO)}
+           "OMP_NUM_THREADS": str(args.torch_threads), "PYTHONPATH": _pythonpath()}
     t0, c0 = time.time(), resource.getrusage(resource.RUSAGE_CHILDREN)
     finished = run(cmd, env, logfile, args.train_timeout)
     c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    curve = loss_curve(logfile)
+    curve = loss_curve(logfile, log_freq)
     saved = sorted((out / "checkpoints").glob("[0-9]*"))
     if not saved:
         raise RuntimeError(f"lerobot-train saved no checkpoint; see {logfile}")
@@ -143,7 +147,8 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
     if last.is_symlink() or last.exists():
         last.unlink()
     last.symlink_to(saved[-1].name)
-    timing = {"steps": int(saved[-1].name), "steps_run": curve[-1][0] if curve else None, "finished": finished, "wall_s": round(time.time() - t0, 1),
+    timing = {"steps": int(saved[-1].name), "steps_run": curve[-1][0] if curve else None,
+              "finished": finished, "wall_s": round(time.time() - t0, 1),
               "cpu_s": round(c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, 1),
               "loss": curve}
     (out.parent / f"{out.name}.json").write_text(json.dumps(timing))
@@ -154,11 +159,12 @@ class Server:
     """The checkpoint served by ``python -m mgdata.evaluate.lerobot_policy`` in the LeRobot environment."""
 
     def __init__(self, args: argparse.Namespace, ckpt: Path, logfile: Path) -> None:
-        self.log = open(logfile, "w")
+        self.log = open(logfile, "w")  # noqa: SIM115 (closed by close())
         self.proc = subprocess.Popen(
-            [args.lerobot_python, "-m", "mgdata.evaluate.lerobot_policy", "--checkpoint", str(ckpt), "--port", "0",
+            [args.lerobot_python, "-m", "mgdata.evaluate.lerobot_policy", "--checkpoint", str(ckpt),
+             "--port", "0",
              "--device", args.serve_device], stdout=subprocess.PIPE, stderr=self.log, text=True,
-            env={**os.environ, "PYTHONPATH": str(REPO), "HF_HUB_OFFLINE": "1", "OMP_NUM_THREADS": "1"})
+            env={**os.environ, "PYTHONPATH": _pythonpath(), "HF_HUB_OFFLINE": "1", "OMP_NUM_THREADS": "1"})
         assert self.proc.stdout is not None
         m = None
         for _ in range(50):  # LeRobot prints a line or two of its own first
@@ -179,9 +185,11 @@ class Server:
         self.log.close()
 
 
-def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path, env: dict[str, str]) -> list[dict]:
+def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
+             env: dict[str, str]) -> list[dict]:
     cmd = [*MGDATA, "eval", "--policy", url, "--scenarios", str(scenarios), "--convention", "state",
-           "--seeds", "0", "--workers", str(args.workers), "--chunk-steps", str(args.chunk_steps), "--out", str(out)]
+           "--seeds", "0", "--workers", str(args.workers), "--chunk-steps", str(args.chunk_steps),
+           "--out", str(out)]
     if args.horizon:
         cmd += ["--horizon", str(args.horizon)]
     run(cmd, env, out.parent / f"{out.name}.log")

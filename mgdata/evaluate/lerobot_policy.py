@@ -7,7 +7,8 @@ and answers observations in every convention ``mgdata eval`` sends (:func:`polic
 ``observation.images.<key>`` the policy declares (HWC uint8 → CHW float in [0, 1], resized to the policy's
 image size if the request's differs), ``observation.state``, ``observation.environment_state`` if the policy
 reads it, and ``task``. The metadata frame lists the policy's ``inputs``, so ``mgdata eval`` sends the
-environment state whenever the policy reads it (``--convention state``: no camera is rendered). A query returns the policy's whole action chunk (``predict_action_chunk``, un-normalised by the
+environment state whenever the policy reads it (``--convention state``: no camera is rendered). A query
+returns the policy's whole action chunk (``predict_action_chunk``, un-normalised by the
 post-processor); torch is seeded from ``(episode_seed, mgdata/step)`` first, so sampling policies give the
 same chunk for the same request.
 

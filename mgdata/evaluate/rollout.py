@@ -15,6 +15,9 @@ end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
   never executed);
 * ``bad_action``: the policy sent a non-finite action.
 
+The gripper value of an action is the dataset's binary command: a regressed value is thresholded at 0.5
+(a policy's 0.7 closes the gripper fully, as the demonstrations' 1 did).
+
 The record (one JSON object, the format ``mgdata metrics`` reads) holds ``family``, ``task``
 (``task_NNNN``), ``condition``, ``seed``, ``scenario``, ``episode_seed``, ``success``, ``engaged``,
 ``t_engage``, ``t_violation`` (first over the constraints), ``t_violation_by`` (per constraint),
@@ -134,7 +137,9 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     restored = restore_scenario(job.scenarios / job.scenario)
     scene, meta, recipe = restored.scene, restored.meta, restored.recipe
     available = list(meta["cameras"])
-    cameras = default_cameras(settings.convention, available) if settings.cameras is None else settings.cameras
+    cameras = settings.cameras
+    if cameras is None:
+        cameras = default_cameras(settings.convention, available)
     check_cameras(settings.convention, cameras, available)
     episode_seed = rollout_seed(job.seed, job.scenario)
     controller = JointController(scene)
@@ -181,6 +186,8 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                 if not np.all(np.isfinite(action)):
                     end = "bad_action"
                     break
+                action = action.copy()
+                action[7] = 1.0 if action[7] >= 0.5 else 0.0  # the dataset's binary command (1 close, 0 open)
                 try:
                     out = runner.step(action[:7], float(action[7]), holding=True)
                 except SimulationError:

@@ -55,7 +55,8 @@ class EnvironmentStates:
                 self.names, self.instances = env.names, env.instances
             elif env.names != self.names:
                 raise DatasetError(f"{self.reader.root}: scene {scene} has environment-state layout "
-                                   f"{list(env.names)}, an earlier scene {list(self.names)}; one dataset needs "
+                                   f"{list(env.names)}, an earlier scene {list(self.names)}; one dataset "
+                                   "needs "
                                    "one layout")
             self._models[scene] = (model, mujoco.MjData(model), env)
         return self._models[scene]
@@ -71,7 +72,7 @@ class EnvironmentStates:
         return out
 
     def add_to_data(self, table: pa.Table) -> pa.Table:
-        """A data file's table with the column inserted after ``observation.state``; per-episode stats kept."""
+        """A data file's table with the column inserted after ``observation.state`` (episode stats kept)."""
         episodes = table.column("episode_index").to_numpy()
         physics = table.column(layout.PHYSICS_STATE)
         flat = physics.combine_chunks().flatten().to_numpy(zero_copy_only=False)

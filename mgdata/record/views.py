@@ -131,7 +131,8 @@ def export_dataset(root: Path, out: Path, fmt: str, *, overview: str | None = No
     view = view_for(fmt, reader.schema, overview=overview, wrist=wrist, cameras=cameras)
     if add_environment_state:
         if view.version != "v3.0":
-            raise DatasetError(f"--add environment_state needs a LeRobot v3.0 view (smolvla, state), not {fmt}")
+            raise DatasetError(f"--add environment_state needs a LeRobot v3.0 view (smolvla, state), "
+                               f"not {fmt}")
         view = replace(view, environment_state=True)
     partial = out.with_name(out.name + ".partial")
     shutil.rmtree(partial, ignore_errors=True)

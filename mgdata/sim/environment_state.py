@@ -5,7 +5,8 @@ trains on a CPU). The layout is derived from the compiled model alone (so it can
 dataset's stored scene and ``sim.physics_state`` without the recipe) and is fixed per scene:
 
 * the **instances**: every body that is a child of the world, is not part of the robot, the ``table`` or the
-  ``goal`` and has a joint, body or geom named ``<body>/…`` (the scene builder names an instance's parts so). In model order: the
+  ``goal`` and has a joint, body or geom named ``<body>/…`` (the scene builder names an instance's parts so).
+  In model order: the
   task's objects in the recipe's role order, then particle instances (liquids, dust) in the same order.
   Per instance, in this order:
 
@@ -61,15 +62,16 @@ class EnvironmentLayout:
         names: list[str] = []
         self._parts: list[tuple[str, object]] = []
         instances: list[str] = []
-        O = mujoco.mjtObj
+        obj = mujoco.mjtObj
         for b in range(1, model.nbody):
             name = model.body(b).name
-            if model.body_parentid[b] != 0 or b in robot_bodies or not name or "/" in name or name in NOT_INSTANCES:
+            if (model.body_parentid[b] != 0 or b in robot_bodies or not name or "/" in name
+                    or name in NOT_INSTANCES):
                 continue
             prefix = f"{name}/"
-            bodies = _prefixed(model, O.mjOBJ_BODY, model.nbody, prefix)
-            joints = _prefixed(model, O.mjOBJ_JOINT, model.njnt, prefix)
-            geoms = _prefixed(model, O.mjOBJ_GEOM, model.ngeom, prefix)
+            bodies = _prefixed(model, obj.mjOBJ_BODY, model.nbody, prefix)
+            joints = _prefixed(model, obj.mjOBJ_JOINT, model.njnt, prefix)
+            geoms = _prefixed(model, obj.mjOBJ_GEOM, model.ngeom, prefix)
             if not (bodies or joints or geoms):
                 continue
             instances.append(name)
@@ -88,9 +90,9 @@ class EnvironmentLayout:
                 if int(model.jnt_type[j]) in _ARTICULATED:
                     self._parts.append(("joint", int(model.jnt_qposadr[j])))
                     names.append(f"{name}.{model.joint(j).name[len(prefix):]}")
-        goal = mujoco.mj_name2id(model, O.mjOBJ_BODY, GOAL_BODY)
+        goal = mujoco.mj_name2id(model, obj.mjOBJ_BODY, GOAL_BODY)
         if goal >= 0:
-            gid = mujoco.mj_name2id(model, O.mjOBJ_GEOM, GOAL_BODY)
+            gid = mujoco.mj_name2id(model, obj.mjOBJ_GEOM, GOAL_BODY)
             radius = float(model.geom_size[gid, 0]) if gid >= 0 else 0.0
             self._parts.append(("goal", (goal, radius)))
             names += ["goal.x", "goal.y", "goal.z", "goal.radius"]

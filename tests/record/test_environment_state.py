@@ -1,5 +1,6 @@
-"""``observation.environment_state``: derived from the stored physics states (``mgdata export --format state``),
-checked against values recomputed here with raw MuJoCo from the qpos of the objects' joints."""
+"""``observation.environment_state``: derived from the stored physics states (``mgdata export
+--format state``), checked against values recomputed here with raw MuJoCo from the qpos of the objects'
+joints."""
 
 from __future__ import annotations
 
@@ -99,7 +100,8 @@ def test_state_export_matches_raw_mujoco(recorded: Path, tmp_path: Path) -> None
         for t in range(ep.length):
             names, expected = _raw_expected(model, ep.physics_state[t], int(source.physics_spec))
             assert feature["names"] == names
-            np.testing.assert_allclose(env[row], expected, rtol=0, atol=2e-6, err_msg=f"episode {e} frame {t}")
+            np.testing.assert_allclose(env[row], expected, rtol=0, atol=2e-6,
+                                       err_msg=f"episode {e} frame {t}")
             row += 1
     assert row == table.num_rows
     stats = json.loads((out / "meta/stats.json").read_text())[FEATURE]
@@ -115,5 +117,5 @@ def test_add_environment_state_needs_physics(recorded: Path, tmp_path: Path) -> 
     """The feature is derived from the physics states: a view without them (pi0, v2.1) is refused."""
     from mgdata.errors import DatasetError
 
-    with pytest.raises(DatasetError, match="v3.0"):
+    with pytest.raises(DatasetError, match=r"v3\.0"):
         export_dataset(recorded, tmp_path / "x", "v2.1", add_environment_state=True)
