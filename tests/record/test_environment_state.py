@@ -119,3 +119,20 @@ def test_add_environment_state_needs_physics(recorded: Path, tmp_path: Path) -> 
 
     with pytest.raises(DatasetError, match=r"v3\.0"):
         export_dataset(recorded, tmp_path / "x", "v2.1", add_environment_state=True)
+
+
+def test_a_recipe_without_cameras_makes_a_camera_free_schema(tmp_path: Path) -> None:
+    """``cameras = []`` in a recipe: a state-only dataset (no image size, no rendering)."""
+    import shutil
+
+    from mgdata.engine.executor import dataset_schema
+    from mgdata.paths import recipes_dir
+
+    shutil.copytree(recipes_dir() / "specs", tmp_path / "specs")
+    text = (recipes_dir() / "jar.toml").read_text()
+    (tmp_path / "jar.toml").write_text(text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]',
+                                                    "cameras = []"))
+    recipe = load_recipe(tmp_path / "jar.toml")
+    assert recipe.tasks.cameras == ()
+    schema = dataset_schema(recipe)
+    assert schema.cameras == () and schema.image_height == schema.image_width == 0
