@@ -130,8 +130,8 @@ def test_a_recipe_without_cameras_makes_a_camera_free_schema(tmp_path: Path) -> 
 
     shutil.copytree(recipes_dir() / "specs", tmp_path / "specs")
     text = (recipes_dir() / "jar.toml").read_text()
-    (tmp_path / "jar.toml").write_text(text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]',
-                                                    "cameras = []"))
+    five = 'cameras = ["front", "left", "right", "shoulder", "wrist"]'
+    (tmp_path / "jar.toml").write_text(text.replace(five, "cameras = []"))
     recipe = load_recipe(tmp_path / "jar.toml")
     assert recipe.tasks.cameras == ()
     schema = dataset_schema(recipe)
