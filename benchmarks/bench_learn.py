@@ -177,7 +177,7 @@ class Server:
         self.url = m.group(1)
 
     def close(self) -> None:
-        self.proc.terminate()  # SIGINT is ignored by a process a non-interactive shell started in the background
+        self.proc.terminate()  # a non-interactive shell starts background jobs with SIGINT ignored
         try:
             self.proc.wait(20)
         except subprocess.TimeoutExpired:
