@@ -20,6 +20,8 @@ if ! "$venv/bin/python" -c "import lerobot" 2>/dev/null; then
   "$base" -m venv "$venv"
   "$venv/bin/python" -m pip install -q --upgrade pip
   "$venv/bin/python" -m pip install -q "lerobot==0.4.4"
+  # mgdata.evaluate.lerobot_policy serves the checkpoint from this environment: its protocol needs these two
+  "$venv/bin/python" -m pip install -q "websockets>=13" "msgpack>=1.0"
 fi
 
 work="$(mktemp -d "${TMPDIR:-/tmp}/mgdata-lerobot-compat.XXXXXX")"

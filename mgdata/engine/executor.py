@@ -154,7 +154,7 @@ def control_rate(physics: Physics, motion: MotionConfig) -> int:
 def dataset_schema(recipe: Recipe) -> DatasetSchema:
     """The dataset schema every episode of a family's generation run shares (the physics-state width is
     task 0's: every task of a family has the same MuJoCo state size)."""
-    size = recipe.tasks.image_size
+    size = recipe.tasks.image_size if recipe.tasks.cameras else 0  # no cameras: a state-only dataset
     fps = control_rate(load_sim_config().physics, load_motion_config())
     return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
@@ -183,7 +183,8 @@ class Executor:
         motion = motion or load_motion_config()
         control_rate(self.scene.physics, motion)
         self.planner = MotionPlanner(self.scene.model, motion)
-        self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) if render else None
+        self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) \
+            if render and recipe.tasks.cameras else None
         self._success = SuccessCheck(self.scene, recipe)
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}

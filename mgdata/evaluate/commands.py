@@ -43,7 +43,8 @@ def register(app: typer.Typer) -> None:
         cameras: Annotated[str | None, typer.Option(
             help="Cameras sent, comma-separated (pi0/smolvla: overview,wrist; default: first overview + "
             "wrist).")] = None,
-        convention: Annotated[str, typer.Option(help="Observation keys: pi0, smolvla or groot.")] = "pi0",
+        convention: Annotated[str, typer.Option(
+            help="Observation keys: pi0, smolvla, groot or state (no camera rendered).")] = "pi0",
         chunk_steps: Annotated[int | None, typer.Option(
             help="Actions executed per query (default: recipes/eval.toml).")] = None,
         timeout: Annotated[float | None, typer.Option(

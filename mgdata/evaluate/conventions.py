@@ -6,6 +6,9 @@ A policy server receives one observation dict per query and answers with an acti
   ``observation/state`` (8,), ``prompt``; reply ``actions`` (H, 8).
 * ``smolvla`` (LeRobot): ``observation.images.top``, ``observation.images.wrist``, ``observation.state``,
   ``task``; reply ``actions`` (H, 8).
+* ``state`` (LeRobot, state-only policies): ``observation.state``, ``observation.environment_state``
+  (:mod:`mgdata.sim.environment_state`, as ``mgdata export --format state`` writes it), ``task``; no camera
+  is rendered; reply ``actions`` (H, 8).
 * ``groot`` (GR00T N1.5 modality names): ``video.<camera>`` (1, H, W, 3) per camera,
   ``state.single_arm`` (1, 7), ``state.gripper`` (1, 1), ``annotation.human.task_description`` [prompt];
   reply ``action.single_arm`` (H, 7) + ``action.gripper`` (H, 1), or ``actions`` (H, 8).
@@ -28,7 +31,8 @@ import numpy as np
 
 from mgdata.errors import PolicyError, RecipeError
 
-CONVENTIONS = ("pi0", "smolvla", "groot")
+CONVENTIONS = ("pi0", "smolvla", "groot", "state")
+ENVIRONMENT_STATE = "observation.environment_state"
 
 
 @dataclass(frozen=True)
@@ -42,11 +46,15 @@ class Observation:
     episode_seed: int
     step: int
     scenario: str
+    environment_state: np.ndarray | None = None
 
 
 def default_cameras(convention: str, available: Sequence[str]) -> tuple[str, ...]:
     """The cameras a convention sends when ``--cameras`` is not given: the first overview camera and the
-    wrist camera (pi0 and SmolVLA take exactly these two; GR00T takes the same two by default)."""
+    wrist camera (pi0 and SmolVLA take exactly these two; GR00T takes the same two by default); none for
+    ``state``."""
+    if convention == "state":
+        return ()
     others = [c for c in available if c != "wrist"]
     if not others or "wrist" not in available:
         raise RecipeError(f"the scenario cameras ({', '.join(available)}) need an overview and 'wrist'")
@@ -57,6 +65,10 @@ def check_cameras(convention: str, cameras: Sequence[str], available: Sequence[s
     """Refuse cameras the scenarios do not have, or a camera count the convention cannot carry."""
     if convention not in CONVENTIONS:
         raise RecipeError(f"--convention {convention!r}: expected one of {', '.join(CONVENTIONS)}")
+    if convention == "state":
+        if cameras:
+            raise RecipeError("--cameras: the state convention sends no camera; leave --cameras out")
+        return
     unknown = [c for c in cameras if c not in available]
     if unknown:
         raise RecipeError(f"--cameras {unknown[0]!r} is not a scenario camera ({', '.join(available)})")
@@ -66,9 +78,12 @@ def check_cameras(convention: str, cameras: Sequence[str], available: Sequence[s
 
 
 def encode(convention: str, cameras: Sequence[str], obs: Observation) -> dict[str, Any]:
-    """The request dict of ``obs`` under ``convention``."""
+    """The request dict of ``obs`` under ``convention``; ``obs.environment_state``, when measured, travels
+    as ``observation.environment_state`` in every convention (a policy that does not read it ignores it)."""
     out: dict[str, Any]
-    if convention == "pi0":
+    if convention == "state":
+        out = {"observation.state": obs.state, "task": obs.prompt}
+    elif convention == "pi0":
         out = {"observation/image": obs.images[cameras[0]], "observation/wrist_image": obs.images[cameras[1]],
                "observation/state": obs.state, "prompt": obs.prompt}
     elif convention == "smolvla":
@@ -79,6 +94,8 @@ def encode(convention: str, cameras: Sequence[str], obs: Observation) -> dict[st
         out = {f"video.{c}": obs.images[c][None] for c in cameras}
         out |= {"state.single_arm": obs.state[None, :7], "state.gripper": obs.state[None, 7:],
                 "annotation.human.task_description": [obs.prompt]}
+    if obs.environment_state is not None:
+        out[ENVIRONMENT_STATE] = obs.environment_state
     out |= {"episode_seed": obs.episode_seed, "mgdata/step": obs.step, "mgdata/scenario": obs.scenario,
             "mgdata/command": obs.command}
     return out

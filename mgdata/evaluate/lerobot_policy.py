@@ -3,9 +3,12 @@
 The checkpoint is a ``save_pretrained`` folder of LeRobot 0.4 (``config.json``, ``model.safetensors`` and the
 ``policy_preprocessor*`` / ``policy_postprocessor*`` pipelines with their normalisation statistics). It is
 loaded with LeRobot's own code (``get_policy_class(type).from_pretrained``, ``make_pre_post_processors``),
-and answers observations in the ``smolvla`` convention (``mgdata eval --convention smolvla``): each
-``observation.images.<key>`` the policy declares (HWC uint8 → CHW float in [0, 1]), ``observation.state`` and
-``task``. A query returns the policy's whole action chunk (``predict_action_chunk``, un-normalised by the
+and answers observations in every convention ``mgdata eval`` sends (:func:`policy_frame`): each
+``observation.images.<key>`` the policy declares (HWC uint8 → CHW float in [0, 1], resized to the policy's
+image size if the request's differs), ``observation.state``, ``observation.environment_state`` if the policy
+reads it, and ``task``. The metadata frame lists the policy's ``inputs``, so ``mgdata eval`` sends the
+environment state whenever the policy reads it (``--convention state``: no camera is rendered). A query
+returns the policy's whole action chunk (``predict_action_chunk``, un-normalised by the
 post-processor); torch is seeded from ``(episode_seed, mgdata/step)`` first, so sampling policies give the
 same chunk for the same request.
 
@@ -29,6 +32,52 @@ import mgdata
 from mgdata.errors import PolicyError
 
 IMAGE_PREFIX = "observation.images."
+STATE = "observation.state"
+ENVIRONMENT_STATE = "observation.environment_state"
+WRIST = "wrist"
+
+
+def _request_images(obs: dict[str, Any]) -> dict[str, np.ndarray]:
+    """Camera name -> (H, W, 3) uint8 image of a request in any convention (pi0's overview is ``image``,
+    SmolVLA's ``top``, GR00T's ``video.<camera>`` arrays (1, H, W, 3))."""
+    out: dict[str, np.ndarray] = {}
+    for key, value in obs.items():
+        if key.startswith(IMAGE_PREFIX):
+            out[key[len(IMAGE_PREFIX):]] = np.asarray(value)
+        elif key.startswith("video."):
+            out[key[len("video."):]] = np.asarray(value)[0]
+        elif key == "observation/image":
+            out["image"] = np.asarray(value)
+        elif key == "observation/wrist_image":
+            out[WRIST] = np.asarray(value)
+    return out
+
+
+def _request_state(obs: dict[str, Any]) -> np.ndarray | None:
+    if STATE in obs:
+        return np.asarray(obs[STATE], np.float32)
+    if "observation/state" in obs:
+        return np.asarray(obs["observation/state"], np.float32)
+    if "state.single_arm" in obs and "state.gripper" in obs:
+        return np.concatenate([np.asarray(obs["state.single_arm"], np.float32)[0],
+                               np.asarray(obs["state.gripper"], np.float32)[0]])
+    return None
+
+
+def match_cameras(wanted: tuple[str, ...], given: tuple[str, ...]) -> dict[str, str]:
+    """Policy camera -> request camera: by name, else the wrist to the wrist and the other cameras to the
+    request's overview cameras in order (a policy trained on ``front,wrist`` served ``top,wrist``)."""
+    out = {w: w for w in wanted if w in given}
+    free = [g for g in given if g not in out.values() and g != WRIST]
+    for w in wanted:
+        if w in out:
+            continue
+        if w == WRIST or (WRIST in w and WRIST in given):
+            if WRIST in given:
+                out[w] = WRIST
+        elif free:
+            out[w] = free.pop(0)
+    return out
 
 
 class LeRobotPolicy:
@@ -52,26 +101,58 @@ class LeRobotPolicy:
         self.pre, self.post = make_pre_post_processors(
             self.policy.config, pretrained_path=str(self.checkpoint),
             preprocessor_overrides={"device_processor": {"device": device}})
-        self.image_keys = tuple(k for k in self.policy.config.input_features if k.startswith(IMAGE_PREFIX))
+        features = self.policy.config.input_features
+        self.inputs = tuple(features)
+        self.image_keys = tuple(k for k in features if k.startswith(IMAGE_PREFIX))
+        self._sizes = {k: tuple(features[k].shape[-2:]) for k in self.image_keys}
 
     @property
     def metadata(self) -> dict[str, Any]:
+        convention = "smolvla" if self.image_keys else "state"
         return {"policy": "lerobot", "type": self.type, "checkpoint": str(self.checkpoint),
-                "images": list(self.image_keys), "mgdata": mgdata.__version__}
+                "images": list(self.image_keys), "inputs": list(self.inputs), "convention": convention,
+                "mgdata": mgdata.__version__}
+
+    def _image(self, key: str, image: np.ndarray) -> Any:
+        torch = self._torch
+        out = torch.from_numpy(np.ascontiguousarray(image.transpose(2, 0, 1))).float() / 255.0
+        if tuple(out.shape[-2:]) != self._sizes[key]:
+            out = torch.nn.functional.interpolate(out[None], size=self._sizes[key], mode="area")[0]
+        return out
+
+    def policy_frame(self, obs: dict[str, Any]) -> dict[str, Any]:
+        """The policy's input frame of a request in any ``mgdata eval`` convention (see the module
+        docstring), before the pre-processor.
+
+        Raises:
+            PolicyError: the request lacks an input the policy reads.
+        """
+        torch = self._torch
+        frame: dict[str, Any] = {}
+        images = _request_images(obs)
+        wanted = tuple(k[len(IMAGE_PREFIX):] for k in self.image_keys)
+        cams = match_cameras(wanted, tuple(images))
+        for cam in wanted:
+            if cam not in cams:
+                raise PolicyError(f"the request has no image for the policy's camera {cam!r} (it sent "
+                                  f"{', '.join(images) or 'none'}); use mgdata eval --convention smolvla")
+            frame[IMAGE_PREFIX + cam] = self._image(IMAGE_PREFIX + cam, images[cams[cam]])
+        state = _request_state(obs)
+        if state is None:
+            raise PolicyError("the request has no observation.state")
+        frame[STATE] = torch.from_numpy(state.copy())
+        if ENVIRONMENT_STATE in self.inputs:
+            if ENVIRONMENT_STATE not in obs:
+                raise PolicyError("the policy reads observation.environment_state and the request has none; "
+                                  "use mgdata eval --convention state")
+            frame[ENVIRONMENT_STATE] = torch.from_numpy(np.asarray(obs[ENVIRONMENT_STATE], np.float32).copy())
+        prompt = obs.get("task", obs.get("prompt", obs.get("annotation.human.task_description", "")))
+        frame["task"] = str(prompt[0] if isinstance(prompt, list | tuple) else prompt)
+        return frame
 
     def infer(self, obs: dict[str, Any]) -> dict[str, Any]:
         torch = self._torch
-        frame: dict[str, Any] = {}
-        for key in (*self.image_keys, "observation.state"):
-            if key not in obs:
-                reads = ", ".join(self.image_keys)
-                raise PolicyError(f"the request has no {key!r}; the policy reads {reads} and "
-                                  "observation.state (mgdata eval --convention smolvla)")
-        for key in self.image_keys:
-            image = np.asarray(obs[key])
-            frame[key] = torch.from_numpy(np.ascontiguousarray(image.transpose(2, 0, 1))).float() / 255.0
-        frame["observation.state"] = torch.from_numpy(np.asarray(obs["observation.state"], np.float32).copy())
-        frame["task"] = str(obs.get("task", ""))
+        frame = self.policy_frame(obs)
         seed = (int(obs.get("episode_seed", 0)) * 1_000_003 + int(obs.get("mgdata/step", 0))) % 2**63
         torch.manual_seed(seed)
         with torch.inference_mode():

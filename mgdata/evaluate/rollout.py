@@ -15,6 +15,9 @@ end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
   never executed);
 * ``bad_action``: the policy sent a non-finite action.
 
+The gripper value of an action is the dataset's binary command: a regressed value is thresholded at 0.5
+(a policy's 0.7 closes the gripper fully, as the demonstrations' 1 did).
+
 The record (one JSON object, the format ``mgdata metrics`` reads) holds ``family``, ``task``
 (``task_NNNN``), ``condition``, ``seed``, ``scenario``, ``episode_seed``, ``success``, ``engaged``,
 ``t_engage``, ``t_violation`` (first over the constraints), ``t_violation_by`` (per constraint),
@@ -29,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from mgdata.episode.gate import SuccessGate
@@ -36,12 +40,20 @@ from mgdata.episode.runner import EpisodeRunner
 from mgdata.episode.success import SuccessCheck
 from mgdata.errors import SimulationError
 from mgdata.evaluate.client import PolicyClient, PolicyTimeout
-from mgdata.evaluate.conventions import Observation, check_cameras, decode_actions, default_cameras, encode
+from mgdata.evaluate.conventions import (
+    ENVIRONMENT_STATE,
+    Observation,
+    check_cameras,
+    decode_actions,
+    default_cameras,
+    encode,
+)
 from mgdata.evaluate.restore import restore_scenario
 from mgdata.record.episode import Frame
 from mgdata.record.recorder import Recorder
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
+from mgdata.sim.environment_state import EnvironmentLayout
 from mgdata.sim.renderer import CameraRig
 
 ENDS = ("success", "timeout", "sim_diverged", "policy_timeout", "bad_action")
@@ -125,7 +137,9 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     restored = restore_scenario(job.scenarios / job.scenario)
     scene, meta, recipe = restored.scene, restored.meta, restored.recipe
     available = list(meta["cameras"])
-    cameras = settings.cameras or default_cameras(settings.convention, available)
+    cameras = settings.cameras
+    if cameras is None:
+        cameras = default_cameras(settings.convention, available)
     check_cameras(settings.convention, cameras, available)
     episode_seed = rollout_seed(job.seed, job.scenario)
     controller = JointController(scene)
@@ -137,7 +151,9 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                            stop_on_violation=False)
     ctrl = scene.data.ctrl[robot.arm_actuator_ids(scene.model)]
     command = np.array([*ctrl[:7], 1.0 if scene.gripper.is_closed(ctrl[7]) else 0.0], dtype=np.float32)
-    rig = CameraRig(scene, cameras, int(meta["image_size"]))
+    shown = cameras or (available[0],)  # a state-only policy's rollout video still shows a camera
+    rig = CameraRig(scene, shown, int(meta["image_size"])) if cameras or settings.video_dir else None
+    env_layout: EnvironmentLayout | None = None
     video: list[dict[str, np.ndarray]] = []
     end: str | None = None
     t_success: int | None = None
@@ -146,13 +162,20 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         runner.start()
         with PolicyClient(settings.policy, timeout=settings.timeout_s,
                           connect_timeout=settings.connect_timeout_s) as client:
+            if settings.convention == "state" or ENVIRONMENT_STATE in client.metadata.get("inputs", ()):
+                env_layout = EnvironmentLayout(scene.model)
             while end is None:
-                images = rig.render() if not chunk or settings.video_dir is not None else {}
+                render = rig is not None and (settings.video_dir is not None or (bool(cameras) and not chunk))
+                images = rig.render() if render else {}
                 if settings.video_dir is not None:
                     video.append(images)
                 if not chunk:
+                    env = None
+                    if env_layout is not None:
+                        mujoco.mj_kinematics(scene.model, scene.data)  # positions of this very state
+                        env = env_layout.compute(scene.model, scene.data)
                     obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
-                                      episode_seed, runner.steps, job.scenario)
+                                      episode_seed, runner.steps, job.scenario, env)
                     try:
                         reply = client.infer(encode(settings.convention, cameras, obs))
                     except PolicyTimeout:
@@ -163,6 +186,8 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                 if not np.all(np.isfinite(action)):
                     end = "bad_action"
                     break
+                action = action.copy()
+                action[7] = 1.0 if action[7] >= 0.5 else 0.0  # the dataset's binary command (1 close, 0 open)
                 try:
                     out = runner.step(action[:7], float(action[7]), holding=True)
                 except SimulationError:
@@ -177,7 +202,8 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         t_engage = recorder.t_engage
     finally:
         recorder.discard()
-        rig.close()
+        if rig is not None:
+            rig.close()
     if settings.video_dir is not None:
         from mgdata.evaluate.video import write_rollout_video
 

@@ -108,7 +108,8 @@ class Worker:
         with timings.measure("setup"):
             ex = Executor(task, self.recipe, grasps=self.grasps, base_seed=self.config.base_seed,
                           render=not after)
-            rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) if after else None
+            rig = CameraRig(ex.scene, self.recipe.tasks.cameras, task.image_size) \
+                if after and self.recipe.tasks.cameras else None
         self._executors[key] = (ex, rig)
         return ex, rig
 

@@ -69,13 +69,22 @@ def register(app: typer.Typer) -> None:
         overview: Annotated[str | None, typer.Option(help="Overview camera (pi0, smolvla).")] = None,
         wrist: Annotated[str | None, typer.Option(help="Wrist camera (pi0, smolvla; default wrist).")] = None,
         cameras: Annotated[str | None, typer.Option(help="Comma-separated cameras (v2.1, groot).")] = None,
+        add: Annotated[list[str] | None, typer.Option(
+            help="Derived feature to add: environment_state (v3.0 views; the state format has it).")] = None,
     ) -> None:
         """Write a loader view of a dataset (camera subset and keys per model convention), no re-encoding.
+        --format state: no cameras, plus observation.environment_state (state-only training).
 
         Example: mgdata export datasets/jar datasets/jar-smolvla --format smolvla --overview front
         """
+        from mgdata.errors import DatasetError
+
+        unknown = [a for a in add or [] if a != "environment_state"]
+        if unknown:
+            raise DatasetError(f"--add {unknown[0]!r}: expected environment_state")
         cams = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
-        path = export_dataset(dataset, out, fmt, overview=overview, wrist=wrist, cameras=cams)
+        path = export_dataset(dataset, out, fmt, overview=overview, wrist=wrist, cameras=cams,
+                              add_environment_state=bool(add))
         typer.echo(f"wrote {path} ({fmt})")
 
     @app.command("render")

@@ -44,7 +44,7 @@ SuccessFn = Callable[[Scene], bool]
 
 def schema_for(scene: Scene, spec: SafetySpec, cameras: CameraRig | None, fps: int = 20) -> DatasetSchema:
     """The dataset schema matching what a :class:`Recorder` with these arguments produces."""
-    size = cameras.size if cameras is not None else scene.task.image_size
+    size = cameras.size if cameras is not None else 0  # a camera-free dataset has no image size
     return DatasetSchema(fps=fps, cameras=cameras.cameras if cameras is not None else (), image_height=size,
                          image_width=size, propositions=spec.proposition_names,
                          constraints=tuple(c.id for c in spec.constraints),

@@ -10,6 +10,9 @@ copied, never re-encoded, so frames are bit-identical to the source:
 - ``groot`` (GR00T N1.5, LeRobot v2.1 + ``meta/modality.json``): every camera (or ``--cameras``), state and
   action split into ``single_arm`` (0:7) and ``gripper`` (7:8), the task from ``task_index``.
 - ``v2.1``: the whole dataset in the LeRobot v2.1 layout, for readers pinned to it.
+- ``state``: LeRobot v3.0 without cameras, with ``observation.environment_state`` derived from the stored
+  physics states (:mod:`mgdata.record.environment_view`): what a state-only policy trains on without
+  LeRobot decoding every video of every sample. ``add_environment_state`` adds the feature to ``smolvla``.
 
 Safety columns and episode metadata travel with every view. The simulator state (``sim.physics_state``
 and the compiled scenes, ``meta/scenes.parquet``) travels with ``v2.1`` only: the training views drop it,
@@ -35,8 +38,9 @@ from mgdata.record.episode import DatasetSchema
 from mgdata.record.episodes import HISTOGRAM_PREFIX, SCENE_COLUMN
 from mgdata.record.metafiles import dump_json
 from mgdata.record.reader import DatasetReader, read_parquet
+from mgdata.sim.environment_state import FEATURE
 
-FORMATS = ("v2.1", "pi0", "smolvla", "groot")
+FORMATS = ("v2.1", "pi0", "smolvla", "groot", "state")
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,7 @@ class ViewSpec:
         renames: source feature key → output key for non-video features (others keep their key).
         modality: write GR00T's ``meta/modality.json``.
         physics: keep ``sim.physics_state`` and the compiled scenes.
+        environment_state: add ``observation.environment_state`` (v3.0 views only).
     """
 
     version: str
@@ -56,6 +61,7 @@ class ViewSpec:
     renames: dict[str, str] = field(default_factory=dict)
     modality: bool = False
     physics: bool = False
+    environment_state: bool = False
 
     def key(self, source: str) -> str | None:
         """The output key of a source feature key, ``None`` if the view drops it."""
@@ -87,6 +93,8 @@ def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wr
     """The :class:`ViewSpec` of export format ``fmt`` (one of :data:`FORMATS`)."""
     if fmt not in FORMATS:
         raise DatasetError(f"export format {fmt!r} is unknown; expected one of {', '.join(FORMATS)}")
+    if fmt == "state":
+        return ViewSpec("v3.0", {}, environment_state=True)
     if fmt in ("pi0", "smolvla"):
         over, wri = _pick(schema, overview, "overview", False), _pick(schema, wrist, "wrist", True)
         if over == wri:
@@ -149,10 +157,22 @@ def copy_scenes(reader: DatasetReader, out: Path, view: ViewSpec,
         shutil.copyfile(src, dst)
 
 
+def _insert_after(features: dict, after: str, key: str, value: dict) -> dict:
+    out: dict = {}
+    for k, v in features.items():
+        out[k] = v
+        if k == after:
+            out[key] = value
+    return out
+
+
 def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
     """A v3.0 dataset with the view's cameras and keys (files copied or re-keyed, never re-encoded)."""
+    from mgdata.record.environment_view import EnvironmentStates
+
     records = reader.records()
     written: list[str] = []
+    env = EnvironmentStates(reader) if view.environment_state else None
 
     def target(rel: str) -> Path:
         path = out / rel
@@ -162,10 +182,13 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
 
     for ref in sorted({r.data for r in records}):
         rel = layout.data_path(ref)
-        layout.write_data_file(rename_table(read_parquet(reader.files.path(rel)), view), target(rel))
+        table = read_parquet(reader.files.path(rel))
+        layout.write_data_file(rename_table(env.add_to_data(table) if env else table, view), target(rel))
     for ref in sorted({r.meta_file for r in records}):
         rel = layout.episodes_path(ref)
-        pq.write_table(rename_table(read_parquet(reader.files.path(rel)), view, episodes=True), target(rel))
+        table = read_parquet(reader.files.path(rel))
+        table = env.add_to_episodes(table) if env else table
+        pq.write_table(rename_table(table, view, episodes=True), target(rel))
     for cam, new in view.cameras.items():
         for ref in sorted({r.videos[layout.video_key(cam)].ref for r in records}):
             src = reader.files.path(layout.video_path(layout.video_key(cam), ref))
@@ -173,7 +196,12 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
     copy_scenes(reader, out, view, target)
     shutil.copyfile(reader.files.path(layout.TASKS_PATH), target(layout.TASKS_PATH))
     stats = json.loads(reader.files.path(layout.STATS_PATH).read_text())
-    target(layout.STATS_PATH).write_text(dump_json(rename_stats(stats, view)))
-    info = dict(reader.info, features=renamed_features(reader, view))
+    stats = rename_stats(stats, view)
+    features = renamed_features(reader, view)
+    if env is not None:
+        stats[FEATURE] = {k: v.tolist() for k, v in env.dataset_stats().items()}
+        features = _insert_after(features, layout.STATE, FEATURE, env.feature())
+    target(layout.STATS_PATH).write_text(dump_json(stats))
+    info = dict(reader.info, features=features)
     info["mgdata"] = dict(info["mgdata"], sha256={rel: sha256_file(out / rel) for rel in sorted(written)})
     (out / layout.INFO_PATH).write_text(dump_json(info))

@@ -216,11 +216,11 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
         if not v > 0:
             raise RecipeError(f"{where} {k} = {v} is out of range (expected a speed > 0)")
     raw_cameras = table.get("cameras", list(CAMERAS))
-    cameras = tuple(raw_cameras) if isinstance(raw_cameras, list) else ()
+    cameras = tuple(raw_cameras) if isinstance(raw_cameras, list) else ("?",)
     bad = [c for c in cameras if c not in CAMERAS]
-    if bad or not cameras or len(set(cameras)) != len(cameras):
-        raise RecipeError(f"{where} cameras = {raw_cameras!r}: expected a non-empty subset of "
-                          f"{list(CAMERAS)}")
+    if bad or len(set(cameras)) != len(cameras):  # [] : a camera-free (state-only) dataset
+        raise RecipeError(f"{where} cameras = {raw_cameras!r}: expected a subset of {list(CAMERAS)} "
+                          "([] for a camera-free, state-only dataset)")
     if "image_size" not in ints:
         from mgdata.sim.config import default_image_size  # imports mujoco: only when a recipe sets no size
 

@@ -1,0 +1,316 @@
+"""Close the loop: generate → LeRobot's own ``lerobot-train`` (state-only ACT) → ``mgdata serve lerobot`` →
+``mgdata eval``, on distinct starts; prints SSR, TSR, EVR, Eng., Safe|Eng. per condition, training steps, wall
+and CPU time and the loss curve (docs/train.md).
+
+Protocols (``--protocol``):
+
+* ``family``: train on ``--per-task`` kept demos of each of the family's base tasks ``--tasks`` (jar: 26 × 8 =
+  208); evaluate on the base scenarios, their ``location`` and ``target`` variants, and ``--heldout`` held-out
+  draws: new layouts from the same layout rules through the same initial-state gate, never trained on.
+* ``single``: the paper's single-task study: ``--per-task`` demos of one task (task 0, its objects pinned)
+  that differ by the variation draws (grasp, standoff, lift); evaluate on the task, its ``location`` and
+  ``target`` variants and ``--heldout`` held-out draws of the same objects at new layouts.
+
+Held-out draws: the recipe's tasks are independent draws from its layout rules (``SeedSequence([seed, k,
+draw])``), so tasks ``count … count + heldout − 1`` of the same recipe with a larger ``[tasks] count`` are
+new layouts that pass the same gate. The benchmark writes that recipe (and, for ``single``, one whose roles'
+model pools are pinned to task 0's objects) into an ``MGDATA_ROOT`` copy under ``--out``; camera-free for
+generation (state-only datasets skip rendering and encoding).
+
+Example (CPU, about an hour on an idle 2-core machine)::
+
+    LEROBOT_PYTHON=/work/lerobot-venv/bin/python .venv/bin/python benchmarks/bench_learn.py \\
+        --protocol family --steps 6000 --workers 2 --out /tmp/learn_family
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+MGDATA = [sys.executable, "-c", "import sys; from mgdata.cli import main; sys.argv[0] = 'mgdata'; main()"]
+
+
+def _pythonpath() -> str:
+    """This checkout first (the LeRobot environment serves mgdata's module from it), then what was set."""
+    return os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)
+
+
+def log(msg: str) -> None:
+    print(f"[bench_learn {time.strftime('%H:%M:%S')}] {msg}", flush=True)
+
+
+def run(cmd: list[str], env: dict[str, str] | None = None, logfile: Path | None = None,
+        timeout: float | None = None) -> bool:
+    """Run ``cmd``; False if it was stopped after ``timeout`` seconds (SIGINT, then SIGKILL)."""
+    log(" ".join(cmd[:1] + [c for c in cmd[1:] if not c.startswith("import sys")])[:400])
+    full = {**os.environ, **(env or {})}
+    if logfile is None:
+        subprocess.run(cmd, env=full, check=True)
+        return True
+    with open(logfile, "w") as fh:
+        proc = subprocess.Popen(cmd, env=full, stdout=fh, stderr=subprocess.STDOUT)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+            log(f"stopped after {timeout} s")
+            return False
+    if proc.returncode:
+        print(logfile.read_text()[-3000:])
+        raise subprocess.CalledProcessError(proc.returncode, cmd)
+    return True
+
+
+def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, str] | None = None) -> Path:
+    """An ``MGDATA_ROOT`` copy whose ``recipes/<family>.toml`` has ``count`` tasks, ``cameras`` and, for each
+    role in ``pins``, a model pool of that one model."""
+    if out.exists():
+        shutil.rmtree(out)
+    (out / "recipes").mkdir(parents=True)
+    for item in REPO.iterdir():
+        if item.name not in ("recipes", ".git", ".venv", ".gpu", ".whl"):
+            (out / item.name).symlink_to(item)
+    for item in (REPO / "recipes").iterdir():
+        if item.name != f"{family}.toml":
+            (out / "recipes" / item.name).symlink_to(item)
+    text = (REPO / "recipes" / f"{family}.toml").read_text()
+    text = re.sub(r"(?m)^count = \d+", f"count = {count}", text, count=1)
+    text = re.sub(r"(?m)^cameras = .*$", f"cameras = {cameras}", text, count=1)
+    for role, model in (pins or {}).items():
+        text = re.sub(rf"(?ms)(^\[layout\.roles\.{role}\]\s*\nmodels = )\[[^\]]*\]", rf'\1["{model}"]', text,
+                      count=1)
+    (out / "recipes" / f"{family}.toml").write_text(text)
+    return out
+
+
+def task0_models(family: str) -> dict[str, str]:
+    from mgdata.engine.init_gate import base_task
+    from mgdata.tasks.recipe import load_recipe
+
+    return {o.name: o.model for o in base_task(load_recipe(family), 0).objects}
+
+
+def loss_curve(train_log: Path, log_freq: int) -> list[tuple[int, float]]:
+    """(step, loss) of lerobot-train's log lines (``step:2K … loss:0.123``; LeRobot rounds the step, so the
+    k-th line is taken as step ``k * log_freq``)."""
+    losses = [float(m.group(1)) for line in train_log.read_text(errors="replace").splitlines()
+              if (m := re.search(r"step:\S+ .*?loss:([0-9.]+)", line))]
+    return [((k + 1) * log_freq, loss) for k, loss in enumerate(losses)]
+
+
+def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dict]:
+    """lerobot-train a small state-only ACT; returns (checkpoint, timings)."""
+    ckpt = out / "checkpoints" / "last" / "pretrained_model"
+    logfile = out.parent / f"{out.name}.log"
+    if args.reuse and ckpt.is_dir():
+        return ckpt, json.loads((out.parent / f"{out.name}.json").read_text())
+    shutil.rmtree(out, ignore_errors=True)
+    log_freq = max(1, min(args.steps // 40, 100))
+    cmd = [args.lerobot_python, "-m", "lerobot.scripts.lerobot_train",
+           f"--dataset.repo_id=mgdata/{dataset.name}", f"--dataset.root={dataset}",
+           "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
+           "--wandb.enable=false", "--policy.pretrained_backbone_weights=null",
+           f"--policy.dim_model={args.dim_model}", f"--policy.dim_feedforward={4 * args.dim_model}",
+           f"--policy.n_encoder_layers={args.encoder_layers}", "--policy.n_decoder_layers=1",
+           "--policy.use_vae=false", f"--policy.chunk_size={args.chunk}",
+           f"--policy.n_action_steps={args.chunk}",
+           f"--policy.optimizer_lr={args.lr}", f"--batch_size={args.batch}", f"--steps={args.steps}",
+           f"--save_freq={max(1, min(args.steps // 4, 500))}", f"--log_freq={log_freq}",
+           f"--num_workers={args.loader_workers}",
+           f"--seed={args.seed}", f"--output_dir={out}"]
+    env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled",
+           "OMP_NUM_THREADS": str(args.torch_threads), "PYTHONPATH": _pythonpath()}
+    t0, c0 = time.time(), resource.getrusage(resource.RUSAGE_CHILDREN)
+    finished = run(cmd, env, logfile, args.train_timeout)
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    curve = loss_curve(logfile, log_freq)
+    saved = sorted((out / "checkpoints").glob("[0-9]*"))
+    if not saved:
+        raise RuntimeError(f"lerobot-train saved no checkpoint; see {logfile}")
+    last = out / "checkpoints" / "last"
+    if last.is_symlink() or last.exists():
+        last.unlink()
+    last.symlink_to(saved[-1].name)
+    timing = {"steps": int(saved[-1].name), "steps_run": curve[-1][0] if curve else None,
+              "finished": finished, "wall_s": round(time.time() - t0, 1),
+              "cpu_s": round(c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, 1),
+              "loss": curve}
+    (out.parent / f"{out.name}.json").write_text(json.dumps(timing))
+    return ckpt, timing
+
+
+class Server:
+    """The checkpoint served by ``python -m mgdata.evaluate.lerobot_policy`` in the LeRobot environment."""
+
+    def __init__(self, args: argparse.Namespace, ckpt: Path, logfile: Path) -> None:
+        self.log = open(logfile, "w")  # noqa: SIM115 (closed by close())
+        self.proc = subprocess.Popen(
+            [args.lerobot_python, "-m", "mgdata.evaluate.lerobot_policy", "--checkpoint", str(ckpt),
+             "--port", "0",
+             "--device", args.serve_device], stdout=subprocess.PIPE, stderr=self.log, text=True,
+            env={**os.environ, "PYTHONPATH": _pythonpath(), "HF_HUB_OFFLINE": "1", "OMP_NUM_THREADS": "1"})
+        assert self.proc.stdout is not None
+        m = None
+        for _ in range(50):  # LeRobot prints a line or two of its own first
+            line = self.proc.stdout.readline()
+            m = re.search(r"(ws://[0-9.]+:\d+)", line)
+            if m or not line:
+                break
+        if not m:
+            raise RuntimeError(f"the policy server did not start: {line!r} {logfile.read_text()[-2000:]}")
+        self.url = m.group(1)
+
+    def close(self) -> None:
+        self.proc.terminate()  # a non-interactive shell starts background jobs with SIGINT ignored
+        try:
+            self.proc.wait(20)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+        self.log.close()
+
+
+def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
+             env: dict[str, str]) -> list[dict]:
+    cmd = [*MGDATA, "eval", "--policy", url, "--scenarios", str(scenarios), "--convention", "state",
+           "--seeds", "0", "--workers", str(args.workers), "--chunk-steps", str(args.chunk_steps),
+           "--out", str(out)]
+    if args.horizon:
+        cmd += ["--horizon", str(args.horizon)]
+    run(cmd, env, out.parent / f"{out.name}.log")
+    return [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines() if line.strip()]
+
+
+def summarise(records: list[dict], label: str) -> dict:
+    from mgdata.metrics import compute_metrics, parse_record
+
+    m = compute_metrics([parse_record(r, label) for r in records]).as_dict()
+    ends: dict[str, int] = {}
+    for r in records:
+        ends[r["end"]] = ends.get(r["end"], 0) + 1
+    return {"n": len(records), **{k: m[k] for k in ("ssr", "tsr", "evr", "eng", "safe_given_eng", "svr")},
+            "ttv": m["ttv"], "ends": ends}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--protocol", choices=("family", "single"), default="family")
+    p.add_argument("--family", default="jar")
+    p.add_argument("--tasks", type=int, default=26, help="base tasks trained on (family) ")
+    p.add_argument("--per-task", type=int, default=None, help="kept demos per task (family 8, single 60)")
+    p.add_argument("--heldout", type=int, default=None, help="held-out draws (family 100, single 30)")
+    p.add_argument("--variants", default="location,target", help="OOD conditions evaluated besides base")
+    p.add_argument("--steps", type=int, default=6000)
+    p.add_argument("--batch", type=int, default=32)
+    p.add_argument("--dim-model", type=int, default=128)
+    p.add_argument("--encoder-layers", type=int, default=2)
+    p.add_argument("--chunk", type=int, default=20)
+    p.add_argument("--chunk-steps", type=int, default=10, help="actions executed per query")
+    p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--seed", type=int, default=1000)
+    p.add_argument("--device", default="cpu", help="training device")
+    p.add_argument("--serve-device", default="cpu")
+    p.add_argument("--workers", type=int, default=2, help="generation and evaluation processes")
+    p.add_argument("--loader-workers", type=int, default=0)
+    p.add_argument("--torch-threads", type=int, default=1)
+    p.add_argument("--train-timeout", type=float, default=None,
+                   help="stop training after this many seconds and use its last checkpoint")
+    p.add_argument("--horizon", type=int, default=None, help="cut rollouts (smoke runs)")
+    p.add_argument("--lerobot-python", default=os.environ.get("LEROBOT_PYTHON", sys.executable))
+    p.add_argument("--reuse", action="store_true", help="reuse data and checkpoint already under --out")
+    p.add_argument("--stop-after", choices=("data", "train"), default=None)
+    p.add_argument("--out", type=Path, required=True)
+    args = p.parse_args()
+    single = args.protocol == "single"
+    per_task = args.per_task or (60 if single else 8)
+    heldout = args.heldout if args.heldout is not None else (30 if single else 100)
+    ntasks = 1 if single else args.tasks
+    out = args.out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    count = ntasks + heldout
+    pins = task0_models(args.family) if single else None
+    train_root = make_root(out / "root_train", args.family, count, "[]", pins)
+    eval_root = make_root(out / "root_eval", args.family, count, '["front", "wrist"]', pins)
+    t_start = time.time()
+    report: dict = {"protocol": args.protocol, "family": args.family, "per_task": per_task, "tasks": ntasks,
+                    "heldout": heldout, "args": {k: str(v) for k, v in vars(args).items()}}
+    data, state = out / "data", out / "data_state"
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.time()
+    if not (args.reuse and state.is_dir()):
+        run([*MGDATA, "generate", "--family", args.family, "--tasks", f"0-{ntasks - 1}", "--per-task",
+             str(per_task), "--workers", str(args.workers), "--out", str(data)],
+            {"MGDATA_ROOT": str(train_root)}, out / "generate.log")
+        shutil.rmtree(state, ignore_errors=True)
+        run([*MGDATA, "export", str(data), str(state), "--format", "state"], {"MGDATA_ROOT": str(train_root)})
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    info = json.loads((state / "meta/info.json").read_text())
+    report["data"] = {"episodes": info["total_episodes"], "frames": info["total_frames"],
+                      "wall_s": round(time.time() - t0, 1),
+                      "cpu_s": round(c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, 1),
+                      "environment_state": info["features"]["observation.environment_state"]["names"]}
+    log(f"data: {report['data']['episodes']} episodes, {report['data']['frames']} frames")
+    scen = {"seen": out / "scen_seen", "heldout": out / "scen_heldout"}
+    conds = ["base", *[c for c in args.variants.split(",") if c]]
+    if not (args.reuse and (scen["seen"] / "manifest.json").exists()):
+        cmd = [*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"0-{ntasks - 1}",
+               "--workers", str(args.workers), "--out", str(scen["seen"])]
+        for c in conds:
+            cmd += ["--condition", c]
+        run(cmd, {"MGDATA_ROOT": str(eval_root)}, out / "scen_seen.log")
+        if heldout:
+            run([*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"{ntasks}-{count - 1}",
+                 "--condition", "base", "--workers", str(args.workers), "--out", str(scen["heldout"])],
+                {"MGDATA_ROOT": str(eval_root)}, out / "scen_heldout.log")
+    if args.stop_after == "data":
+        print(json.dumps(report, indent=1))
+        return
+    ckpt, timing = train(args, state, out / "train")
+    report["train"] = timing
+    log(f"trained {timing['steps']} steps in {timing['wall_s']} s wall, {timing['cpu_s']} s CPU")
+    if args.stop_after == "train":
+        print(json.dumps(report, indent=1))
+        return
+    server = Server(args, ckpt, out / "serve.log")
+    results: dict = {}
+    try:
+        env = {"MGDATA_ROOT": str(eval_root)}
+        records = evaluate(args, server.url, scen["seen"], out / "eval_seen", env)
+        for c in conds:
+            results[c] = summarise([r for r in records if r["condition"] == c], c)
+        if heldout:
+            records = evaluate(args, server.url, scen["heldout"], out / "eval_heldout", env)
+            results["heldout"] = summarise(records, "heldout")
+    finally:
+        server.close()
+    report["eval"] = results
+    report["wall_s"] = round(time.time() - t_start, 1)
+    (out / "report.json").write_text(json.dumps(report, indent=1, default=str))
+    print(f"\n{args.protocol} protocol, {args.family}: {report['data']['episodes']} demos, "
+          f"{timing['steps']} steps ({timing['wall_s']} s wall, {timing['cpu_s']} s CPU)")
+    print(f"{'condition':<10} {'n':>4} {'SSR':>6} {'TSR':>6} {'EVR':>6} {'Eng.':>6} {'Safe|Eng':>8}")
+    for c, r in results.items():
+        def pct(v: object) -> str:
+            return "-" if v is None else f"{float(v):5.1f}%"
+        print(f"{c:<10} {r['n']:>4} {pct(r.get('ssr')):>6} {pct(r.get('tsr')):>6} {pct(r.get('evr')):>6} "
+              f"{pct(r.get('eng')):>6} {pct(r.get('safe_given_eng')):>8}  ends {r['ends']}")
+    print("loss curve (step, loss):", timing["loss"])
+
+
+if __name__ == "__main__":
+    main()
