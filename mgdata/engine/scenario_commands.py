@@ -46,6 +46,7 @@ def register(app: typer.Typer) -> None:
         from mgdata.engine.commands import parse_ids
         from mgdata.engine.scenarios import build_family, write_manifest
         from mgdata.engine.skeleton import load_family_recipe
+        from mgdata.lock import output_lock
         from mgdata.tasks.recipe import family_recipes
         from mgdata.tasks.variants import CONDITIONS
 
@@ -69,12 +70,13 @@ def register(app: typer.Typer) -> None:
         console = plain_console()
         start = time.perf_counter()
         n = 0
-        for recipe in recipes:
-            ids = chosen or tuple(range(recipe.tasks.count))
-            for entry in build_family(recipe, out, ids, conditions, workers):
-                n += 1
-                console.print(f"{entry['path']}  {entry['changes']}")
-        write_manifest(out)
+        with output_lock(out):  # one build per --out
+            for recipe in recipes:
+                ids = chosen or tuple(range(recipe.tasks.count))
+                for entry in build_family(recipe, out, ids, conditions, workers):
+                    n += 1
+                    console.print(f"{entry['path']}  {entry['changes']}")
+            write_manifest(out)
         console.print(f"{n} scenarios in {out} ({time.perf_counter() - start:.1f} s)")
 
     @group.command("list")
