@@ -200,7 +200,7 @@ def trials(tmp: Path, args: argparse.Namespace, log: Callable[[str], None]) -> N
             proc = subprocess.Popen([MGDATA, *c.argv(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                     text=True, env=ENV, start_new_session=True)
             if runs == 1 or rng.random() < args.rekill:
-                delay = rng.uniform(0.5, max(1.0, c.wall))
+                delay = rng.uniform(0.5, max(1.0, 0.8 * c.wall))  # within the run, mostly
                 try:
                     proc.wait(timeout=delay)
                 except subprocess.TimeoutExpired:
@@ -274,6 +274,10 @@ def rss_run(tmp: Path, args: argparse.Namespace, log: Callable[[str], None]) -> 
             family = max(folders, key=lambda p: p.stat().st_mtime).name if folders else "-"
             kids = [rss_of(p) for p in descendants(proc.pid)]
             samples.append((time.monotonic(), family, rss_of(proc.pid), [r for r in kids if r]))
+            if len(samples) % 30 == 1:  # live, in case the run is cut short
+                _, fam, main_rss, workers = samples[-1]
+                log(f"rss {fam}: main {main_rss / 2**20:.0f} MB, workers "
+                    f"{[round(r / 2**20) for r in workers]} MB")
             stop.wait(1.0)
 
     thread = threading.Thread(target=sample, daemon=True)
