@@ -3,7 +3,8 @@
 Each command lives next to the code it drives (``mgdata/<area>/commands.py``) and is registered below, so
 this file stays a table of contents. User errors (:class:`mgdata.errors.MgdataError`) and operating-system
 errors (a path that cannot be read or written, a full disk) print one literal ``error:`` line and exit with
-status 2; anything else is a bug and keeps its traceback.
+status 2, and so do click's usage errors (a missing option, an extra argument: no framed panel); anything
+else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -18,6 +19,11 @@ from mgdata import __version__
 from mgdata.console import print_error
 from mgdata.errors import MgdataError
 from mgdata.paths import ROOT_ENV
+
+try:  # typer >= 0.29 carries its own copy of click, whose exceptions derive from this
+    from typer import TyperException as UsageError
+except ImportError:  # older typer: click's
+    from click import ClickException as UsageError  # type: ignore[assignment]
 
 app = typer.Typer(
     name="mgdata",
@@ -84,12 +90,29 @@ def fill_optional_values(argv: list[str]) -> list[str]:
     return out
 
 
+def usage_error_line(err: UsageError) -> str:
+    """A click usage error as one line: the command it concerns, then click's message with its line breaks
+    folded (``mgdata merge: Missing option '--out'.``)."""
+    ctx = getattr(err, "ctx", None)
+    where = f"{ctx.command_path}: " if ctx is not None else ""
+    return where + " ".join(err.format_message().split())
+
+
 def main() -> None:
     """Console-script entry point: run the app, turning user errors into one line and exit status 2."""
     _register_all()
     try:
-        # standalone mode: usage errors and Ctrl-C are handled by typer, then it exits
-        app(args=fill_optional_values(sys.argv[1:]))
+        # not standalone: click's usage errors come here as exceptions instead of typer's framed panels
+        code = app(args=fill_optional_values(sys.argv[1:]), prog_name="mgdata", standalone_mode=False)
+    except UsageError as err:  # unknown option, missing or extra argument, a value of the wrong type …
+        if type(err).__name__ == "NoArgsIsHelpError":  # `mgdata` or `mgdata scenarios` alone: the help
+            typer.echo(err.ctx.get_help())  # type: ignore[attr-defined]
+        else:
+            print_error(usage_error_line(err))
+        sys.exit(2)
+    except typer.Abort:  # end of input at a prompt
+        print_error("aborted")
+        sys.exit(1)
     except MgdataError as err:
         print_error(err)
         sys.exit(2)
@@ -97,3 +120,4 @@ def main() -> None:
         where = f"{err.filename}: " if err.filename else ""
         print_error(f"{where}{err.strerror or err}")
         sys.exit(2)
+    sys.exit(code if isinstance(code, int) else 0)

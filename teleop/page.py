@@ -34,6 +34,10 @@ from mgdata.errors import OutputError
 _HTML = files("mgdata.teleop") / "operator_page.html"
 SEND_TIMEOUT_S = 0.5
 """A page whose socket does not take an event within this long (s) is dropped (it reconnects by itself)."""
+MAX_BODY_BYTES = 4096
+"""The largest request body read (a command's is empty); a larger one is refused with 413."""
+REQUEST_TIMEOUT_S = 10.0
+"""A client that has not sent its whole request within this long (s) is disconnected."""
 
 
 class _Client:
@@ -120,6 +124,10 @@ class OperatorPage:
 
         class Handler(http.server.BaseHTTPRequestHandler):
             protocol_version = "HTTP/1.1"
+            timeout = REQUEST_TIMEOUT_S  # a slow or silent client ties up only its own thread, briefly
+            # malformed requests (bad request line, unknown method) get one plain line, not an HTML page
+            error_message_format = "error: %(code)d %(message)s\n"
+            error_content_type = "text/plain; charset=utf-8"
 
             def log_message(self, format: str, *args: object) -> None:  # no access log on the terminal
                 return
@@ -140,17 +148,25 @@ class OperatorPage:
                 elif self.path == "/events":
                     self._stream()
                 else:
-                    self._reply(404, b"not found\n")
+                    self._reply(404, b"error: not found\n")
 
             def do_POST(self) -> None:
                 name = self.path.removeprefix("/command/")
-                length = int(self.headers.get("Content-Length") or 0)
+                try:
+                    length = int(self.headers.get("Content-Length") or 0)
+                except ValueError:
+                    length = -1
+                if not 0 <= length <= MAX_BODY_BYTES:  # unread: the connection closes after the reply
+                    self.close_connection = True
+                    self._reply(413 if length > 0 else 400,
+                                f"error: a command's body is at most {MAX_BODY_BYTES} bytes\n".encode())
+                    return
                 if length:
                     self.rfile.read(length)
                 if not self.path.startswith("/command/") or name not in page._commands:
-                    self._reply(404, b"unknown command\n")
+                    self._reply(404, b"error: unknown command\n")
                 elif self.headers.get("X-Mgdata") != "1":
-                    self._reply(403, b"missing X-Mgdata header\n")
+                    self._reply(403, b"error: missing X-Mgdata header\n")
                 else:
                     page._on_command(name)
                     self._reply(204, b"")

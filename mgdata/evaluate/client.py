@@ -58,7 +58,8 @@ def check_health(url: str, timeout: float) -> None:
 
 def _server_error(text: str) -> PolicyError:
     lines = [ln.strip() for ln in text.strip().splitlines() if ln.strip()]
-    return PolicyError(f"the policy server failed: {lines[-1] if lines else 'no message'}")
+    last = lines[-1].removeprefix("error: ") if lines else "no message"
+    return PolicyError(f"the policy server failed: {last}")
 
 
 class PolicyClient:

@@ -33,6 +33,7 @@ from mgdata.atomic import write_text_atomic
 from mgdata.errors import DatasetError, OutputError
 from mgdata.evaluate.client import PolicyClient
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, run_rollout
+from mgdata.lock import output_lock
 from mgdata.pool_worker import die_with_parent
 from mgdata.scenarios.store import read_manifest
 
@@ -137,6 +138,13 @@ def _prepare(job: EvalJob, metadata: dict[str, Any]) -> Path:
 
 def run_eval(job: EvalJob, on_record: Callable[[dict[str, Any]], None] | None = None,
              on_plan: Callable[[int, int], None] | None = None) -> EvalSummary:
+    """:func:`_run_eval` holding ``job.out``'s one-writer lock (:func:`mgdata.lock.output_lock`)."""
+    with output_lock(job.out):
+        return _run_eval(job, on_record, on_plan)
+
+
+def _run_eval(job: EvalJob, on_record: Callable[[dict[str, Any]], None] | None = None,
+              on_plan: Callable[[int, int], None] | None = None) -> EvalSummary:
     """Run every rollout of ``job`` not in the results yet (see the module docstring).
 
     ``on_plan(total, done)`` is called once before the first rollout, ``on_record`` after each one.

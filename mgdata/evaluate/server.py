@@ -4,8 +4,13 @@
 * On connect the server sends one binary frame: the policy's metadata (msgpack, :mod:`mgdata.evaluate.wire`).
 * Then, per query, the client sends an observation (binary frame) and the server replies with the action
   dict (binary frame), to which it adds ``server_timing`` (``infer_ms``) as openpi does.
-* If the policy raises, the server sends the traceback as a **text** frame and closes the connection with
-  code 1011 (internal error); a client surfaces that text as the error.
+* A request that is not an observation (not msgpack, a text frame, not a map) or that the policy refuses
+  (a missing or wrong-typed key) is answered with one **text** frame, one line ``error: <what was wrong>``
+  (never a traceback: that goes to the server's stderr when the policy itself failed), and the connection
+  is closed (1008 policy violation for a bad request, 1011 internal error for a failing policy); a client
+  surfaces that line as the error. A message over :data:`MAX_MESSAGE_BYTES` is refused by the websocket
+  layer, which closes with 1009 (message too big) and says so in the close reason. Every connection has
+  its own thread, so a slow or hostile client stalls only itself.
 
 Example::
 
@@ -27,7 +32,40 @@ from websockets.frames import CloseCode
 from websockets.http11 import Request, Response
 from websockets.sync.server import Server, ServerConnection, serve
 
+from mgdata.errors import MgdataError
 from mgdata.evaluate.wire import packb, unpackb
+
+MAX_MESSAGE_BYTES = 64 * 1024 * 1024
+"""The largest request the server reads (64 MiB: five 256² cameras are ~1 MiB, ten 512² ~8 MiB)."""
+
+
+class BadRequest(MgdataError):
+    """A client sent something that is not an observation."""
+
+
+def observation(message: bytes | str) -> dict[str, Any]:
+    """The observation in one client message, or :class:`BadRequest` saying what it is instead."""
+    if isinstance(message, str):
+        raise BadRequest("expected a binary msgpack observation, got a text frame")
+    try:
+        obs = unpackb(message)
+    except Exception as err:  # msgpack's and numpy's many decoding errors
+        raise BadRequest(f"the request is not msgpack-numpy ({type(err).__name__}: {err})") from None
+    if not isinstance(obs, dict):
+        raise BadRequest(f"an observation is a msgpack map, got {type(obs).__name__}")
+    return obs
+
+
+REQUEST_ERRORS = (MgdataError, ValueError, TypeError, KeyError, IndexError)
+"""What a policy raises on a request with a missing or wrong-typed value (a bad request, not a failure)."""
+
+
+def error_line(err: BaseException) -> str:
+    """``error: <message>`` on one line (a user error's message; otherwise its type, then its message)."""
+    text = str(err) if isinstance(err, MgdataError) else f"{type(err).__name__}: {err}"
+    if not isinstance(err, REQUEST_ERRORS):
+        text = f"the policy failed: {text}"
+    return "error: " + " ".join(text.split())[:2000]
 
 
 class Policy(Protocol):
@@ -50,7 +88,7 @@ class PolicyServer:
 
     def __init__(self, policy: Policy, host: str = "127.0.0.1", port: int = 8000) -> None:
         self.policy = policy
-        self._server: Server = serve(self._handle, host, port, compression=None, max_size=None,
+        self._server: Server = serve(self._handle, host, port, compression=None, max_size=MAX_MESSAGE_BYTES,
                                      process_request=_health)
         self.host, self.port = self._server.socket.getsockname()[:2]
 
@@ -65,23 +103,32 @@ class PolicyServer:
         self._server.shutdown()
 
     def _handle(self, ws: ServerConnection) -> None:
-        ws.send(packb(self.policy.metadata))
+        try:
+            ws.send(packb(self.policy.metadata))
+        except ConnectionClosed:
+            return
         while True:
             try:
-                obs = unpackb(ws.recv())
+                message = ws.recv()
             except ConnectionClosed:
                 return
             try:
+                obs = observation(message)
                 start = time.perf_counter()
                 action = dict(self.policy.infer(obs))
                 action["server_timing"] = {"infer_ms": 1000.0 * (time.perf_counter() - start)}
                 ws.send(packb(action))
             except ConnectionClosed:
                 return
-            except Exception:  # openpi's protocol: any policy error goes to the client as a text frame
-                # (the client prints it as one error line and stops the run), then the connection closes
-                traceback.print_exc(file=sys.stderr)
-                ws.send(traceback.format_exc())
-                ws.close(code=CloseCode.INTERNAL_ERROR,
-                         reason="Internal server error. Traceback included in previous frame.")
+            except Exception as err:  # openpi's protocol: the error goes to the client as a text frame (the
+                # client prints it as one error line and stops the run), then the connection closes
+                bad_request = isinstance(err, REQUEST_ERRORS)
+                if not bad_request:  # the policy itself failed: its traceback is for the operator
+                    traceback.print_exc(file=sys.stderr)
+                try:
+                    ws.send(error_line(err))
+                    ws.close(code=CloseCode.POLICY_VIOLATION if bad_request else CloseCode.INTERNAL_ERROR,
+                             reason="bad request" if bad_request else "internal server error")
+                except ConnectionClosed:
+                    pass
                 return

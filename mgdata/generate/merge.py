@@ -18,33 +18,36 @@ Example::
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
-from dataclasses import asdict
 from pathlib import Path
-
-import pyarrow as pa
-import pyarrow.parquet as pq
 
 from mgdata.errors import DatasetError, OutputError
 from mgdata.generate.resume import RunState
 from mgdata.generate.run import STATE_FILE, failed_path
+from mgdata.lock import output_lock
 from mgdata.record import layout
-from mgdata.record.metadata import meta_to_dict
+from mgdata.record.integrity import check_intact
 from mgdata.record.reader import DatasetReader
-from mgdata.record.staging import EPISODE_JSON, FRAMES_PARQUET, SCENE_MJB, STAGED_FORMAT
-from mgdata.record.video import remux
+from mgdata.record.restage import restage
 from mgdata.record.writer import DatasetWriter
 
 
 def merge_shards(shards: list[Path], out: Path) -> int:
-    """Write the merged dataset (module docstring); returns its episode count."""
+    """Write the merged dataset (module docstring); returns its episode count. One merge at a time per
+    ``out`` (:func:`mgdata.lock.output_lock`)."""
     out = Path(out)
+    with output_lock(out):
+        return _merge_shards(shards, out)
+
+
+def _merge_shards(shards: list[Path], out: Path) -> int:
     if out.exists():
         raise OutputError(f"--out {out}: already exists; choose a new folder")
     if len(shards) < 1:
         raise DatasetError("merge needs at least one shard dataset")
+    for shard in shards:  # damage would be copied into the merged dataset
+        check_intact(Path(shard), "nothing was merged")
     readers = [DatasetReader(Path(s)) for s in shards]
     states = [_state(r) for r in readers]
     _check_same(readers, states)
@@ -116,27 +119,3 @@ def _merge(readers: list[DatasetReader], out: Path, state: RunState | None) -> i
         state.save(part / STATE_FILE)
     os.replace(part, out)
     return len(order)
-
-
-def restage(reader: DatasetReader, e: int, path: Path) -> Path:
-    """Episode ``e`` of ``reader`` as a staged-episode folder (:mod:`mgdata.record.staging`) at ``path``:
-    its frame columns, each camera's packets (copied), its scene, metadata and pixel histograms."""
-    rec, s = reader.record(e), reader.schema
-    shutil.rmtree(path, ignore_errors=True)
-    path.mkdir(parents=True)
-    table = reader.data_table(rec.data)
-    lo = rec.from_index - int(table.column("index")[0].as_py())
-    rows = table.slice(lo, rec.length)
-    frame_cols = [c.key for c in layout.frame_columns(s)]
-    pq.write_table(pa.Table.from_arrays([rows.column(k) for k in frame_cols], names=frame_cols),
-                   path / FRAMES_PARQUET)
-    for cam in s.cameras:
-        src, start = reader.video_file(e, cam)
-        remux([(src, start, rec.length)], path / f"{layout.video_key(cam)}.mp4", s.fps)
-    if s.physics_state_size:
-        (path / SCENE_MJB).write_bytes(reader.scene_mjb(e))
-    doc = {"format": STAGED_FORMAT, "length": rec.length, "task": rec.task, "meta": meta_to_dict(rec.meta),
-           "histograms": {k: h.tolist() for k, h in rec.histograms.items()},
-           "schema": asdict(s), "video": asdict(reader.video)}
-    (path / EPISODE_JSON).write_text(json.dumps(doc))
-    return path

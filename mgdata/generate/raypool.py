@@ -45,6 +45,10 @@ OBJECT_STORE_BYTES = 256 * 2**20
 """Object store of a local instance: staged episodes pass through it one at a time per worker (a five-camera
 256² jar episode is a few MB)."""
 PASSED_ENV = ("LP_NUM_THREADS", "MUJOCO_GL", "SVT_LOG")
+START_TIMEOUT_S = 600.0
+"""How long the actors may take to start and report their fingerprints (each needs one free CPU somewhere in
+the cluster: a cluster with fewer free CPUs than ``--workers`` is an error, not a wait forever)."""
+RERUN = "everything committed so far is kept: run the same command again to resume"
 
 
 STAGE_PREFIX = "mgdata-ray-"
@@ -141,7 +145,7 @@ class RayAttemptPool:
 
     def _check_fingerprints(self) -> None:
         mine = local_fingerprint(_inputs_digest(self.config))
-        theirs = self._get([a.fingerprint.remote() for a in self._actors])
+        theirs = self._get([a.fingerprint.remote() for a in self._actors], timeout=START_TIMEOUT_S)
         for fp in theirs:
             problems = mine.differences(fp)
             if problems:
@@ -149,18 +153,24 @@ class RayAttemptPool:
                                   f"({'; '.join(problems)}); refusing to mix them: run its attempts on "
                                   "matching machines only")
 
-    def _get(self, refs: Any) -> Any:
+    def _get(self, refs: Any, timeout: float | None = None) -> Any:
         ray = self._ray
         try:
-            return ray.get(refs)
+            return ray.get(refs, timeout=timeout)
         except ray.exceptions.RayTaskError as err:  # the attempt raised: raise its own error here
             cause = getattr(err, "cause", None)
             if isinstance(cause, BaseException):
                 raise cause from None
             raise
-        except ray.exceptions.RayActorError:
-            raise WorkerError("a Ray worker died; everything committed so far is kept, run the same command "
-                              "again to resume") from None
+        except ray.exceptions.GetTimeoutError:
+            cpus = ray.cluster_resources().get("CPU", 0)
+            raise WorkerError(f"Ray did not start {self.workers} workers within {START_TIMEOUT_S:.0f} s "
+                              f"(each needs one free CPU; the cluster has {cpus:g}): add nodes or ask for "
+                              "fewer --workers") from None
+        except ray.exceptions.RayActorError:  # its process died, or the node it ran on
+            raise WorkerError(f"a Ray worker died; {RERUN}") from None
+        except ray.exceptions.RayError as err:  # a node lost with an attempt's result, Ray's own processes
+            raise WorkerError(f"a Ray node or object was lost ({type(err).__name__}); {RERUN}") from None
 
     @property
     def in_flight(self) -> int:
@@ -195,7 +205,8 @@ class RayAttemptPool:
             with contextlib.suppress(Exception):
                 ray.get([a.close.remote() for a in actors], timeout=60)
         for a in actors:
-            ray.kill(a, no_restart=True)
+            with contextlib.suppress(Exception):  # an actor whose node is gone
+                ray.kill(a, no_restart=True)
         self._queue.clear()
         if self._started:
             ray.shutdown()  # stops this machine's Ray processes, killed actors included

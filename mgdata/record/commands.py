@@ -25,15 +25,31 @@ def register(app: typer.Typer) -> None:
     def validate(
         dataset: Dataset,
         decode_all: Annotated[bool, typer.Option("--decode-all", help="Decode every video frame.")] = False,
+        repair: Annotated[bool, typer.Option(
+            "--repair", help="Copy the episodes whose files match their checksums into --out instead.")] \
+        = False,
+        out: Annotated[Path | None, typer.Option(help="New dataset folder of --repair.")] = None,
     ) -> None:
         """Check structure, counts, timestamps, stats, checksums and the safety record of a dataset.
 
         Prints one 'problem:' line per problem. Exit status: 0 valid; 1 the dataset is invalid (corrupt or
-        inconsistent: any problem); 2 DATASET is not a folder.
-        Example: mgdata validate datasets/jar
+        inconsistent: any problem); 2 DATASET is not a folder. With --repair --out NEW: copy the intact
+        episodes (every file they live in matches its checksum) into NEW, which generate can resume.
+        Example: mgdata validate datasets/jar; mgdata validate --repair datasets/jar --out datasets/jar_ok
         """
         if not dataset.is_dir():
             raise DatasetError(f"{dataset}: no such dataset folder")
+        if repair or out is not None:
+            from mgdata.record.repair import repair_dataset
+
+            if not repair or out is None:
+                raise DatasetError("--repair and --out go together: mgdata validate --repair DATASET "
+                                   "--out NEW")
+            done = repair_dataset(dataset, out)
+            dropped = ", ".join(map(str, done.dropped)) or "none"
+            typer.echo(f"wrote {done.out}: {len(done.kept)} intact episodes copied; dropped {dropped} "
+                       f"({len(done.damaged)} damaged files)")
+            return
         report = validate_dataset(dataset, decode_all=decode_all)
         for note in report.notes:
             typer.echo(f"note: {note}")
@@ -50,9 +66,15 @@ def register(app: typer.Typer) -> None:
         as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
     ) -> None:
         """Summarise a dataset: episodes, frames, families, conditions, kept vs negatives, yield, size.
+        Every file is first checked against its recorded checksum: a damaged dataset is one error, exit 2.
 
         Example: mgdata info datasets/jar
         """
+        from mgdata.record.integrity import check_intact
+
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
+        check_intact(dataset, "the summary would describe a damaged dataset")
         summary = summarize(dataset)
         if as_json:
             data = asdict(summary) | {"root": str(summary.root), "yield": summary.yield_}

@@ -21,9 +21,9 @@ import json
 import os
 import shutil
 from pathlib import Path
-from typing import IO
 
 from mgdata.errors import DatasetError
+from mgdata.lock import FileLock
 from mgdata.record.layout import WORK_DIR
 
 MANIFEST = "COMMIT"
@@ -198,20 +198,19 @@ class FileView:
 
 
 class WriterLock:
-    """An exclusive lock on ``<root>/.mgdata/lock`` so two writers never append to one dataset."""
+    """An exclusive lock on ``<root>/.mgdata/lock`` so two writers never append to one dataset (a
+    :class:`mgdata.lock.FileLock`: it dies with its process)."""
 
     def __init__(self, root: Path) -> None:
         work_dir(root).mkdir(parents=True, exist_ok=True)
-        self._file: IO[str] | None = open(work_dir(root) / "lock", "w")  # noqa: SIM115
-        try:
-            fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            self._file.close()
-            self._file = None
-            raise DatasetError(f"{root}: the dataset is open for writing by another process") from None
+        self._lock_dir = work_dir(root)
+        message = f"{root}: the dataset is open for writing by another process"
+        self._lock: FileLock | None = FileLock(work_dir(root) / "lock", message, DatasetError)
 
     def release(self) -> None:
-        if self._file is not None:
-            fcntl.flock(self._file, fcntl.LOCK_UN)
-            self._file.close()
-            self._file = None
+        """Drop the lock and its file, and the work area if nothing else is in it."""
+        if self._lock is not None:
+            self._lock.release(unlink=True)
+            self._lock = None
+            with contextlib.suppress(OSError):
+                self._lock_dir.rmdir()

@@ -31,8 +31,10 @@ from typing import Any
 import mujoco
 
 from mgdata.errors import DatasetError, OutputError
+from mgdata.lock import output_lock
 from mgdata.record import layout
 from mgdata.record.episode import DatasetSchema, Frame
+from mgdata.record.integrity import check_intact
 from mgdata.record.metafiles import read_info
 from mgdata.record.physics import STATE_SPEC, model_from_bytes, set_physics_state
 from mgdata.record.reader import DatasetReader
@@ -179,8 +181,14 @@ def rerender(job: RenderJob, on_episode: Callable[[int, int], None] | None = Non
         OutputError: ``out`` exists already.
     """
     out = Path(job.out)
+    with output_lock(out):  # one render per --out (its .partial is also the writer's)
+        return _rerender(job, out, on_episode)
+
+
+def _rerender(job: RenderJob, out: Path, on_episode: Callable[[int, int], None] | None) -> RenderSummary:
     if out.exists():
         raise OutputError(f"--out {out}: already exists; choose a new folder")
+    check_intact(Path(job.source), "nothing was rendered")
     reader = DatasetReader(Path(job.source))
     schema, video = _check(job, reader)
     start = time.perf_counter()

@@ -42,6 +42,7 @@ from mgdata.record.episodes import (
     stats_features,
     table_schema,
 )
+from mgdata.record.integrity import check_intact
 from mgdata.record.metafiles import (
     build_info,
     dump_json,
@@ -139,7 +140,8 @@ class DatasetWriter:
 
     @classmethod
     def open(cls, root: Path, schema: DatasetSchema | None = None) -> DatasetWriter:
-        """Resume an existing dataset: finish or drop an interrupted commit, drop unfinished staged work,
+        """Resume an existing dataset: finish or drop an interrupted commit, check every file against its
+        recorded checksum (damage: :class:`DatasetError`, nothing written), drop unfinished staged work,
         check ``schema`` (if given) matches, and continue appending after the last complete episode."""
         root = Path(root)
         if not (root / layout.INFO_PATH).exists() and not (root / layout.WORK_DIR).exists():
@@ -147,6 +149,7 @@ class DatasetWriter:
         lock = WriterLock(root)
         try:
             recover(root)
+            check_intact(root)  # never append to damaged files (mgdata/record/integrity.py)
             shutil.rmtree(work_dir(root) / "staging", ignore_errors=True)
             info = read_info(root / layout.INFO_PATH)
             writer = cls(root, info, lock)

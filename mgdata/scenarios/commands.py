@@ -43,6 +43,7 @@ def register(app: typer.Typer) -> None:
 
         Example: mgdata scenarios build --out scenarios --family jar --tasks 0-3
         """
+        from mgdata.lock import output_lock
         from mgdata.options import parse_ids
         from mgdata.scenarios.store import build_family, write_manifest
         from mgdata.skeleton.skeleton import load_family_recipe
@@ -69,12 +70,13 @@ def register(app: typer.Typer) -> None:
         console = plain_console()
         start = time.perf_counter()
         n = 0
-        for recipe in recipes:
-            ids = chosen or tuple(range(recipe.tasks.count))
-            for entry in build_family(recipe, out, ids, conditions, workers):
-                n += 1
-                console.print(f"{entry['path']}  {entry['changes']}")
-        write_manifest(out)
+        with output_lock(out):  # one build per --out
+            for recipe in recipes:
+                ids = chosen or tuple(range(recipe.tasks.count))
+                for entry in build_family(recipe, out, ids, conditions, workers):
+                    n += 1
+                    console.print(f"{entry['path']}  {entry['changes']}")
+            write_manifest(out)
         console.print(f"{n} scenarios in {out} ({time.perf_counter() - start:.1f} s)")
 
     @group.command("list")

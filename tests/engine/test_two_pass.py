@@ -9,6 +9,7 @@ from pathlib import Path
 from mgdata.generate.run import GenerateJob, failed_path, generate
 from mgdata.paths import recipes_dir
 from mgdata.record.reader import DatasetReader
+from tests.helpers.record import dataset_files
 
 
 def low_yield_recipe(tmp: Path) -> Path:
@@ -29,10 +30,6 @@ def low_yield_recipe(tmp: Path) -> Path:
     return path
 
 
-def _files(root: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file() and ".mgdata" not in p.parts}
-
 
 def test_rendering_after_the_gate_writes_the_same_bytes(tmp_path: Path) -> None:
     recipe = low_yield_recipe(tmp_path)
@@ -47,5 +44,5 @@ def test_rendering_after_the_gate_writes_the_same_bytes(tmp_path: Path) -> None:
     kept, failed = DatasetReader(after), DatasetReader(failed_path(after))
     assert kept.num_episodes >= 1 and failed.num_episodes >= 1, (s_after.stages, s_after.kept)
     assert kept.frames(0, "front").std() > 5  # real pictures, not blank frames
-    assert _files(after) == _files(during)
-    assert _files(failed_path(after)) == _files(failed_path(during))
+    assert dataset_files(after) == dataset_files(during)
+    assert dataset_files(failed_path(after)) == dataset_files(failed_path(during))

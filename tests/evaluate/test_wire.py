@@ -59,12 +59,13 @@ def test_a_served_policy_speaks_the_protocol() -> None:
                                   "prompt": "x", "episode_seed": 7})
             assert reply["actions"].shape == (16, 8) and reply["actions"].dtype == np.float32
             assert (reply["actions"] == command).all() and "infer_ms" in reply["server_timing"]
-        # a policy error arrives as a text frame (the traceback) and the connection is closed with 1011
+        # a policy error arrives as a one-line text frame and the connection is closed
         with connect(url, compression=None, max_size=None) as ws:
             assert unpackb(ws.recv(timeout=10))["policy"] == "hold"
             ws.send(packb({"prompt": "no command"}))
             text = ws.recv(timeout=10)
-            assert isinstance(text, str) and "PolicyError" in text and "mgdata/command" in text
+            assert isinstance(text, str) and text.startswith("error: ") and "mgdata/command" in text
+            assert "\n" not in text and "Traceback" not in text
         with PolicyClient(url, timeout=10) as client, pytest.raises(PolicyError) as err:
             client.infer({"prompt": "no command"})
         message = str(err.value)
