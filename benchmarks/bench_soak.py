@@ -41,6 +41,8 @@ from mgdata.paths import recipes_dir
 
 MGDATA = str(Path(sys.executable).parent / "mgdata")
 ENV = os.environ | {"LP_NUM_THREADS": "1"}
+SERVERS: list[subprocess.Popen] = []
+"""The policy server the eval trials use (stopped at the end)."""
 FAMILIES = ("jar", "clutter_dry", "clutter_liquid", "stack", "lid", "cabinet", "dusty")
 
 
@@ -133,6 +135,7 @@ def prepare(tmp: Path, families: list[str], log: Callable[[str], None]) -> list[
                                                             "--condition", "base", "--condition", "target"]))
     server = subprocess.Popen([MGDATA, "serve", "hold", "--port", "0"], stdout=subprocess.PIPE, text=True,
                               env=ENV)
+    SERVERS.append(server)
     assert server.stdout is not None
     url = server.stdout.readline().split(" on ")[1].split()[0]
     commands.append(Command("eval", lambda out: ["eval", "--policy", url, "--scenarios", str(scen), "--out",
@@ -167,6 +170,9 @@ def main() -> None:
         else:
             trials(tmp, args, log)
     finally:
+        for server in SERVERS:
+            server.terminate()
+            server.wait(timeout=30)
         if not args.keep:
             shutil.rmtree(tmp, ignore_errors=True)
 
