@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 from mgdata.generate.resume import DrawCursor
 from mgdata.generate.run import GenerateJob, generate
 from mgdata.record.reader import DatasetReader
-from tests.engine.test_two_pass import _files, low_yield_recipe
+from tests.helpers.generate import low_yield_recipe
+from tests.helpers.record import dataset_files
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 
@@ -72,7 +73,7 @@ def test_per_task_quota_is_met_and_independent_of_workers(tmp_path: Path) -> Non
         outs.append(out)
     metas = [r.meta for r in DatasetReader(outs[0]).records()]
     assert sorted(m.task_id for m in metas) == [0, 0, 1, 1]
-    assert _files(outs[0]) == _files(outs[1])
+    assert dataset_files(outs[0]) == dataset_files(outs[1])
 
 
 @pytest.mark.slow

@@ -14,7 +14,8 @@ from mgdata.cpu import RESULT_FLAGS
 from mgdata.errors import WorkerError
 from mgdata.generate.fingerprint import local_fingerprint
 from mgdata.generate.run import GenerateJob, generate
-from tests.engine.test_two_pass import _files, low_yield_recipe
+from tests.helpers.generate import low_yield_recipe
+from tests.helpers.record import dataset_files
 
 ray = pytest.importorskip("ray")
 MGDATA = str(Path(sys.executable).parent / "mgdata")
@@ -47,7 +48,7 @@ def test_a_ray_run_writes_the_bytes_of_one_worker(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stdout + proc.stderr
     one = generate(GenerateJob(out=tmp_path / "one", workers=1, **common))
     assert one.kept == 2
-    assert _files(tmp_path / "ray") == _files(tmp_path / "one")
+    assert dataset_files(tmp_path / "ray") == dataset_files(tmp_path / "one")
     assert not list(Path("/tmp").glob("mgdata-ray-*")), "actors left staging folders behind"
 
 

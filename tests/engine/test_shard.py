@@ -11,7 +11,8 @@ import pytest
 from mgdata.errors import DatasetError
 from mgdata.generate.merge import merge_shards
 from mgdata.generate.run import GenerateJob, failed_path, generate
-from tests.engine.test_two_pass import _files, low_yield_recipe
+from tests.helpers.generate import low_yield_recipe
+from tests.helpers.record import dataset_files
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 
@@ -43,7 +44,7 @@ def test_merged_shards_equal_one_run(tmp_path: Path) -> None:
         shards.append(out)
     merged = tmp_path / "merged"
     assert merge_shards(shards, merged) == 6
-    assert _files(merged) == _files(whole)
-    assert _files(failed_path(merged)) == _files(failed_path(whole))
+    assert dataset_files(merged) == dataset_files(whole)
+    assert dataset_files(failed_path(merged)) == dataset_files(failed_path(whole))
     with pytest.raises(DatasetError, match=r"overlap|shares tasks"):
         merge_shards([shards[0], shards[0]], tmp_path / "twice")
