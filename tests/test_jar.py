@@ -21,7 +21,7 @@ import pytest
 from mgdata.engine.executor import Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.grasps.db import GraspDB
-from mgdata.paths import grasps_dir, recipes_dir
+from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.record.reader import DatasetReader
 from mgdata.record.video import decode
@@ -33,6 +33,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeletons.jar import JarSkeleton
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.generate import jar_recipe
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 
@@ -47,16 +48,10 @@ def grasps() -> GraspDB:
     return GraspDB.load_dir(grasps_dir())
 
 
-def small_recipe(tmp: Path) -> Path:
+
+def two_camera_recipe(tmp: Path) -> Path:
     """The shipped jar recipe with two 64-pixel cameras (fast to render and encode)."""
-    text = (recipes_dir() / "jar.toml").read_text()
-    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
-    cams = 'cameras = ["front", "left", "right", "shoulder", "wrist"]'
-    text = text.replace(cams, 'cameras = ["front", "wrist"]')
-    text = text.replace("image_size = 256", "image_size = 64")
-    path = tmp / "jar.toml"
-    path.write_text(text)
-    return path
+    return jar_recipe(tmp, cameras=("front", "wrist"), image_size=64)
 
 
 def test_base_tasks_follow_the_layout_rules(recipe) -> None:  # type: ignore[no-untyped-def]
@@ -310,7 +305,7 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "no recipe for family 'nosuch'" in proc.stderr and "Traceback" not in proc.stderr
-    proc = _generate(tmp_path / "y", small_recipe(tmp_path), 1, "--tasks", "0-40")
+    proc = _generate(tmp_path / "y", two_camera_recipe(tmp_path), 1, "--tasks", "0-40")
     assert proc.returncode == 2 and "do not exist" in proc.stderr
 
 
@@ -336,7 +331,7 @@ def _alive(pid: int) -> bool:
 def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
     """Kill -9 a two-worker run mid-episode, resume with one worker: the dataset is byte-identical to an
     uninterrupted one-worker run (so neither the kill nor the worker count changes a single byte)."""
-    recipe_file = small_recipe(tmp_path)
+    recipe_file = two_camera_recipe(tmp_path)
     whole = tmp_path / "whole"
     assert _generate(whole, recipe_file, 3).returncode == 0
     out = tmp_path / "killed"
@@ -371,7 +366,7 @@ def test_resume_after_sigkill_continues_without_gaps(tmp_path: Path) -> None:
 
 
 def test_keep_failed_puts_labelled_negatives_in_a_separate_dataset(tmp_path: Path) -> None:
-    recipe_file = small_recipe(tmp_path)
+    recipe_file = two_camera_recipe(tmp_path)
     # a lid that starts below vertical falls shut while the scene settles: the lid-push target cannot exist
     recipe_file.write_text(recipe_file.read_text().replace("open = 1.0", "open = 0.5"))
     out = tmp_path / "jar"
@@ -389,7 +384,7 @@ def test_keep_failed_puts_labelled_negatives_in_a_separate_dataset(tmp_path: Pat
 def test_ctrl_c_stops_cleanly_and_keeps_what_was_committed(tmp_path: Path) -> None:
     out = tmp_path / "jar"
     cmd = [*MGDATA, "generate", "--family", "jar", "--n", "20", "--out", str(out), "--recipe",
-           str(small_recipe(tmp_path)), "--workers", "2"]
+           str(two_camera_recipe(tmp_path)), "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     info = out / "meta" / "info.json"
     deadline = time.monotonic() + 300

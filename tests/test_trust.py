@@ -19,22 +19,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from mgdata.paths import recipes_dir
 from tests.helpers import rawdata
+from tests.helpers.generate import jar_recipe
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 LID_SHUT_RAD = np.deg2rad(5.0)  # hinge angle from its closed stop
 AT_REST_M_S, AT_REST_RAD_S = 0.01, 0.1  # jar speed
 
-
-def _small_recipe(tmp: Path) -> Path:
-    text = (recipes_dir() / "jar.toml").read_text()
-    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
-    text = text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]', 'cameras = ["front"]')
-    text = text.replace("image_size = 256", "image_size = 32")
-    path = tmp / "jar.toml"
-    path.write_text(text)
-    return path
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +33,7 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     tmp = tmp_path_factory.mktemp("trust")
     out = tmp / "jar"
     cmd = [*MGDATA, "generate", "--family", "jar", "--n", "3", "--out", str(out), "--recipe",
-           str(_small_recipe(tmp)), "--tasks", "2-4", "--workers", "1"]
+           str(jar_recipe(tmp)), "--tasks", "2-4", "--workers", "1"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return out

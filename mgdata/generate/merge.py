@@ -98,17 +98,7 @@ def _merge(readers: list[DatasetReader], out: Path, state: RunState | None) -> i
                     for k, r in enumerate(readers) for rec in r.records()))
     part = out.with_name(out.name + ".partial")
     shutil.rmtree(part, ignore_errors=True)
-    info = first.info
-    mg = info["mgdata"]
-    extra = {"generator": mg["generator"]} if mg.get("generator") is not None else {}
-    video = first.video
-    with DatasetWriter.create(
-            part, first.schema, codec=video.codec, crf=video.crf, preset=video.preset, gop=video.gop,
-            spec=first.spec, chunks_size=int(info["chunks_size"]),
-            data_file_mb=int(info["data_files_size_in_mb"]),
-            video_file_mb=int(info["video_files_size_in_mb"]),
-            video_file_seconds=float(mg["video_file_seconds"]), hold_steps=first.hold_steps,
-            kept_only=first.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file")) as writer:
+    with DatasetWriter.create_like(part, first) as writer:
         stage = writer.root / layout.WORK_DIR / "merge"
         for _, _, k, e in order:
             writer.append_staged(restage(readers[k], e, stage))

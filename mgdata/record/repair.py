@@ -87,17 +87,8 @@ def repair_dataset(source: Path, out: Path) -> RepairSummary:
         kept = tuple(reader.records()[k].index for k in keep)
         part = out.with_name(out.name + ".partial")
         shutil.rmtree(part, ignore_errors=True)
-        info, video = reader.info, reader.video
-        mg = info["mgdata"]
-        extra = {"generator": mg["generator"]} if mg.get("generator") is not None else {}
-        with DatasetWriter.create(
-                part, reader.schema, codec=video.codec, crf=video.crf, preset=video.preset, gop=video.gop,
-                spec=reader.spec, chunks_size=int(info["chunks_size"]),
-                data_file_mb=int(info["data_files_size_in_mb"]),
-                video_file_mb=int(info["video_files_size_in_mb"]),
-                video_file_seconds=float(mg["video_file_seconds"]), hold_steps=reader.hold_steps,
-                kept_only=reader.kept_only, mgdata=extra,
-                episodes_per_file=mg.get("episodes_per_file")) as writer:
+        mg = reader.info["mgdata"]
+        with DatasetWriter.create_like(part, reader) as writer:
             stage = writer.root / layout.WORK_DIR / "repair"
             for k in keep:
                 writer.append_staged(restage(reader, k, stage))

@@ -124,17 +124,8 @@ def _open(job: RenderJob, reader: DatasetReader, schema: DatasetSchema,
         raise OutputError(f"{part}: left by a render with other settings; delete it or repeat that command")
     if part.exists() and any(p.name != layout.WORK_DIR for p in part.iterdir()):
         raise OutputError(f"{part}: exists and is not a dataset being rendered; delete it first")
-    info = reader.info
-    extra = {"rendered_from": origin}
-    if info["mgdata"].get("generator") is not None:
-        extra["generator"] = info["mgdata"]["generator"]
-    writer = DatasetWriter.create(
-        part, schema, codec=video.codec, crf=video.crf, preset=video.preset, gop=video.gop, spec=reader.spec,
-        chunks_size=int(info["chunks_size"]), data_file_mb=int(info["data_files_size_in_mb"]),
-        video_file_mb=int(info["video_files_size_in_mb"]),
-        video_file_seconds=float(info["mgdata"]["video_file_seconds"]), hold_steps=reader.hold_steps,
-        episodes_per_file=info["mgdata"].get("episodes_per_file"),
-        kept_only=reader.kept_only, mgdata=extra)
+    writer = DatasetWriter.create_like(part, reader, schema=schema, video=video,
+                                       mgdata={"rendered_from": origin})
     if writer.video != video:
         writer.close()
         raise DatasetError(f"video settings {video} do not survive info.json")

@@ -139,6 +139,26 @@ class DatasetWriter:
         return writer
 
     @classmethod
+    def create_like(cls, root: Path, source: DatasetReader, *, schema: DatasetSchema | None = None,
+                    video: VideoSettings | None = None, mgdata: dict | None = None) -> DatasetWriter:
+        """Start a new dataset in ``root`` written as ``source`` was: its video settings, spec, file sizes,
+        the gate's promises and its generator's inputs digest (after the keys of ``mgdata``); ``schema`` and
+        ``video`` replace ``source``'s (a re-render). What ``merge``, ``render`` and ``validate --repair``
+        write."""
+        info, mg = source.info, source.info["mgdata"]
+        video = video or source.video
+        extra = dict(mgdata or {})
+        if mg.get("generator") is not None:
+            extra["generator"] = mg["generator"]
+        return cls.create(
+            root, schema or source.schema, codec=video.codec, crf=video.crf, preset=video.preset,
+            gop=video.gop, spec=source.spec, chunks_size=int(info["chunks_size"]),
+            data_file_mb=int(info["data_files_size_in_mb"]),
+            video_file_mb=int(info["video_files_size_in_mb"]),
+            video_file_seconds=float(mg["video_file_seconds"]), hold_steps=source.hold_steps,
+            kept_only=source.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file"))
+
+    @classmethod
     def open(cls, root: Path, schema: DatasetSchema | None = None) -> DatasetWriter:
         """Resume an existing dataset: finish or drop an interrupted commit, check every file against its
         recorded checksum (damage: :class:`DatasetError`, nothing written), drop unfinished staged work,

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from mgdata.generate.run import GenerateJob, generate
-from mgdata.paths import recipes_dir
+from tests.helpers.generate import jar_recipe
 from tests.helpers.record import dataset_files
 
 ray = pytest.importorskip("ray")
@@ -30,19 +30,10 @@ STORE = 80 * 2**20
 N, TASKS = 3, (0, 1, 2)
 
 
-def small_recipe(tmp: Path) -> Path:
-    text = (recipes_dir() / "jar.toml").read_text()
-    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
-    text = text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]', 'cameras = ["front"]')
-    text = text.replace("image_size = 256", "image_size = 32")
-    path = tmp / "jar.toml"
-    path.write_text(text)
-    return path
-
 
 @pytest.fixture(scope="module")
 def recipe(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return small_recipe(tmp_path_factory.mktemp("recipe"))
+    return jar_recipe(tmp_path_factory.mktemp("recipe"))
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from mgdata.paths import recipes_dir
+from tests.helpers.generate import jar_recipe
 from tests.helpers.record import dataset_files
 
 pytestmark = pytest.mark.slow
@@ -22,18 +22,9 @@ MGDATA = str(Path(sys.executable).parent / "mgdata")
 ENV = os.environ | {"LP_NUM_THREADS": "1"}
 
 
-def small_recipe(tmp: Path) -> Path:
-    text = (recipes_dir() / "jar.toml").read_text()
-    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
-    text = text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]', 'cameras = ["front"]')
-    text = text.replace("image_size = 256", "image_size = 32")
-    path = tmp / "jar.toml"
-    path.write_text(text)
-    return path
-
 
 def test_a_killed_shard_job_is_rerun_and_the_merge_is_the_single_run(tmp_path: Path) -> None:
-    recipe = small_recipe(tmp_path)
+    recipe = jar_recipe(tmp_path)
     common = [MGDATA, "generate", "--family", "jar", "--recipe", str(recipe), "--per-task", "1", "--tasks",
               "0-1", "--workers", "2"]
     s0, s1 = tmp_path / "s0", tmp_path / "s1"

@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 
 from mgdata.errors import DatasetError
-from mgdata.paths import recipes_dir
 from mgdata.record.integrity import check_intact, damaged_files
 from mgdata.record.reader import DatasetReader
 from mgdata.record.synthetic import SYNTHETIC_SPEC, synthetic_episode, synthetic_schema
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
+from tests.helpers.generate import jar_recipe
 
 MGDATA = str(Path(sys.executable).parent / "mgdata")
 
@@ -118,21 +118,12 @@ def test_repair_copies_the_intact_episodes(tmp_path: Path) -> None:
     one_error(mgdata("validate", "--repair", root), "--repair and --out go together")
 
 
-def small_recipe(folder: Path) -> Path:
-    text = (recipes_dir() / "jar.toml").read_text()
-    text = text.replace('spec = "specs/jar.toml"', f'spec = "{recipes_dir() / "specs" / "jar.toml"}"')
-    text = text.replace('cameras = ["front", "left", "right", "shoulder", "wrist"]', 'cameras = ["front"]')
-    text = text.replace("image_size = 256", "image_size = 32")
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "jar.toml").write_text(text)
-    return folder / "jar.toml"
-
 
 @pytest.mark.slow  # two small generate runs: ~75 s here
 def test_generate_refuses_to_resume_onto_damage_and_resumes_the_repaired_dataset(tmp_path: Path) -> None:
     """The issue's case: a finished dataset's data file truncated to 1,000 bytes, then generate asked for
     one more episode: one error naming the file, exit 2, nothing written; after --repair it resumes."""
-    recipe = small_recipe(tmp_path / "recipe")
+    recipe = jar_recipe(tmp_path / "recipe")
     out = tmp_path / "jar"
     args = ("generate", "--family", "jar", "--recipe", recipe, "--tasks", "0", "--workers", "1")
     first = mgdata(*args, "--n", 1, "--out", out)
