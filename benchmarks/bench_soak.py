@@ -23,6 +23,7 @@ Run: ``nice -n 5 .venv/bin/python benchmarks/bench_soak.py --trials 30 [--famili
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import random
 import re
@@ -239,12 +240,10 @@ def trials(tmp: Path, args: argparse.Namespace, log: Callable[[str], None]) -> N
 
 
 def rss_of(pid: int) -> int:
-    try:
+    with contextlib.suppress(OSError):  # the process has ended: it holds no memory
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) * 1024
-    except OSError:
-        pass
     return 0
 
 

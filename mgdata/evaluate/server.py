@@ -21,6 +21,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import http
 import sys
 import time
@@ -125,10 +126,8 @@ class PolicyServer:
                 bad_request = isinstance(err, REQUEST_ERRORS)
                 if not bad_request:  # the policy itself failed: its traceback is for the operator
                     traceback.print_exc(file=sys.stderr)
-                try:
+                with contextlib.suppress(ConnectionClosed):  # a client already gone needs no reply
                     ws.send(error_line(err))
                     ws.close(code=CloseCode.POLICY_VIOLATION if bad_request else CloseCode.INTERNAL_ERROR,
                              reason="bad request" if bad_request else "internal server error")
-                except ConnectionClosed:
-                    pass
                 return

@@ -5,7 +5,7 @@
 
 Example::
 
-    writer.append_staged(restage(DatasetReader(Path("ds/s0")), 0, Path("/tmp/staged-0")))
+    writer.append_staged(restage(DatasetReader(Path("ds/s0")), 0, stage_dir))
 """
 
 from __future__ import annotations
