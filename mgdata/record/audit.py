@@ -75,6 +75,8 @@ class SafetyAuditor:
             if dict(meta.formulas) != stored:
                 problems.append(f"{where}: formulas {dict(meta.formulas)} differ from the dataset spec "
                                 f"{stored}")
+        if not self.propositions:  # a training view (export --format state) keeps no labels to replay
+            return [*problems, *self._metadata(ep, (), replayed=False), *self._promise(ep, ())]
         try:
             mon = self._monitor(meta.spec_name, meta.formulas)
             ids = mon.constraint_ids
@@ -104,8 +106,9 @@ class SafetyAuditor:
                                 f"{bool(violated[t, c])}")
         return problems
 
-    def _metadata(self, ep: EpisodeData, ids: tuple[str, ...]) -> list[str]:
-        """The episode's metadata against its per-step columns."""
+    def _metadata(self, ep: EpisodeData, ids: tuple[str, ...], replayed: bool = True) -> list[str]:
+        """The episode's metadata against its per-step columns (``replayed``: the violation flags are stored,
+        so the verdict can be recomputed)."""
         where, meta, problems = f"episode {ep.index}", ep.meta, []
         first = {cid: _first(ep.violated[:, c]) for c, cid in enumerate(ids)}
         for cid in ids:
@@ -123,7 +126,7 @@ class SafetyAuditor:
                             f"{t_engage}")
         t_viol = min((t for t in first.values() if t is not None), default=None)
         nu = verdict(t_viol, t_engage)
-        if meta.verdict != nu:
+        if replayed and meta.verdict != nu:
             problems.append(f"{where}: stored verdict {meta.verdict}, the columns give {nu} (first violation "
                             f"at frame {t_viol}, engagement at frame {t_engage})")
         if meta.success:

@@ -54,6 +54,7 @@ DFA_STATE = "safety.dfa_state"
 VIOLATED = "safety.violated"
 ENGAGED = "safety.engaged"
 SUCCESS = "safety.success"
+SAFETY_VECTORS: tuple[str, ...] = (LABELS, DFA_STATE, VIOLATED)  # per constraint/proposition, per frame
 PHYSICS_STATE = "sim.physics_state"
 INDEX_COLUMNS: tuple[str, ...] = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 

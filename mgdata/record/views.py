@@ -10,11 +10,15 @@ copied, never re-encoded, so frames are bit-identical to the source:
 - ``groot`` (GR00T N1.5, LeRobot v2.1 + ``meta/modality.json``): every camera (or ``--cameras``), state and
   action split into ``single_arm`` (0:7) and ``gripper`` (7:8), the task from ``task_index``.
 - ``v2.1``: the whole dataset in the LeRobot v2.1 layout, for readers pinned to it.
-- ``state``: LeRobot v3.0 without cameras, with ``observation.environment_state`` derived from the stored
-  physics states (:mod:`mgdata.record.environment_view`): what a state-only policy trains on without
+- ``state``: LeRobot v3.0 without cameras and without the per-frame labels, DFA states and violation flags
+  (``safety.engaged`` and ``safety.success`` stay), with ``observation.environment_state`` derived from the
+  stored physics states (:mod:`mgdata.record.environment_view`): what a state-only policy trains on without
   LeRobot decoding every video of every sample. ``add_environment_state`` adds the feature to ``smolvla``.
 
-Safety columns and episode metadata travel with every view. The simulator state (``sim.physics_state``
+Episode metadata (verdicts, violation times) travels with every view and the per-frame safety columns with
+every view but ``state``: LeRobot's ``__getitem__`` converts every column of the action chunk it reads, and
+the three safety vectors, which no policy reads, made a state-only sample 1.7x dearer (5.8 → 3.4 CPU-ms,
+jar; docs/train.md). The source dataset keeps them. The simulator state (``sim.physics_state``
 and the compiled scenes, ``meta/scenes.parquet``) travels with ``v2.1`` only: the training views drop it,
 since their loaders take every non-video feature as a model input or expect a fixed key set, and a policy
 must not see simulator state.
@@ -54,6 +58,8 @@ class ViewSpec:
         modality: write GR00T's ``meta/modality.json``.
         physics: keep ``sim.physics_state`` and the compiled scenes.
         environment_state: add ``observation.environment_state`` (v3.0 views only).
+        safety: keep the per-frame labels, DFA states and violation flags (engagement and success stay in
+            every view).
     """
 
     version: str
@@ -62,12 +68,15 @@ class ViewSpec:
     modality: bool = False
     physics: bool = False
     environment_state: bool = False
+    safety: bool = True
 
     def key(self, source: str) -> str | None:
         """The output key of a source feature key, ``None`` if the view drops it."""
         if source.startswith(layout.IMAGE_PREFIX):
             return self.cameras.get(layout.camera_name(source))
         if source == layout.PHYSICS_STATE and not self.physics:
+            return None
+        if source in layout.SAFETY_VECTORS and not self.safety:
             return None
         return self.renames.get(source, source)
 
@@ -94,7 +103,7 @@ def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wr
     if fmt not in FORMATS:
         raise DatasetError(f"export format {fmt!r} is unknown; expected one of {', '.join(FORMATS)}")
     if fmt == "state":
-        return ViewSpec("v3.0", {}, environment_state=True)
+        return ViewSpec("v3.0", {}, environment_state=True, safety=False)
     if fmt in ("pi0", "smolvla"):
         over, wri = _pick(schema, overview, "overview", False), _pick(schema, wrist, "wrist", True)
         if over == wri:

@@ -16,6 +16,7 @@ from mgdata.record.export import export_dataset
 from mgdata.record.physics import model_from_bytes
 from mgdata.record.reader import DatasetReader
 from mgdata.record.recorder import Recorder, schema_for
+from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
@@ -90,6 +91,12 @@ def test_state_export_matches_raw_mujoco(recorded: Path, tmp_path: Path) -> None
     feature = info["features"][FEATURE]
     assert not [k for k, f in info["features"].items() if f["dtype"] == "video"]
     assert "sim.physics_state" not in info["features"] and not (out / "videos").exists()
+    # no per-frame labels, DFA states or violation flags (no policy reads them; LeRobot converts every
+    # column of every action chunk); engagement and success stay, and the view validates
+    assert not {"safety.labels", "safety.dfa_state", "safety.violated"} & set(info["features"])
+    assert {"safety.engaged", "safety.success"} <= set(info["features"])
+    report = validate_dataset(out)
+    assert report.ok, report.problems
     table = pq.read_table(out / "data/chunk-000/file-000.parquet")
     env = np.stack(table.column(FEATURE).to_numpy(zero_copy_only=False))
     assert env.dtype == np.float32 and env.shape == (table.num_rows, feature["shape"][0])
