@@ -7,9 +7,16 @@ Protocols (``--protocol``):
 * ``family``: train on ``--per-task`` kept demos of each of the family's base tasks ``--tasks`` (jar: 26 × 8 =
   208); evaluate on the base scenarios, their ``location`` and ``target`` variants, and ``--heldout`` held-out
   draws: new layouts from the same layout rules through the same initial-state gate, never trained on.
-* ``single``: the paper's single-task study: ``--per-task`` demos of one task (task 0, its objects pinned)
-  that differ by the variation draws (grasp, standoff, lift); evaluate on the task, its ``location`` and
-  ``target`` variants and ``--heldout`` held-out draws of the same objects at new layouts.
+* ``single``: the paper's single-task study: one task (task 0's objects pinned) at ``--layouts`` layouts,
+  ``--per-task`` demos of each that differ by the variation draws (standoff, lift, push, goal offset; 20 × 3
+  = 60); evaluate on those layouts, their ``location`` and ``target`` variants and ``--heldout`` held-out
+  layouts of the same objects. (Demos of one layout only teach nothing about where a moved jar is: a
+  policy trained so engaged 2 of 30 new layouts.)
+
+``--grasp-cycle`` (default 1) sets the recipe's ``grasp_cycle``: every demo of a layout takes its most
+natural reachable grasp. The recipes' default (0) cycles through every reachable grasp, which makes the
+demos of one layout reach the jar from up to eight sides with arm configurations 1-2.5 rad apart at the
+grasp (docs/train.md): data a deterministic policy averages into none of them.
 
 Held-out draws: the recipe's tasks are independent draws from its layout rules (``SeedSequence([seed, k,
 draw])``), so tasks ``count … count + heldout − 1`` of the same recipe with a larger ``[tasks] count`` are
@@ -77,9 +84,10 @@ def run(cmd: list[str], env: dict[str, str] | None = None, logfile: Path | None 
     return True
 
 
-def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, str] | None = None) -> Path:
-    """An ``MGDATA_ROOT`` copy whose ``recipes/<family>.toml`` has ``count`` tasks, ``cameras`` and, for each
-    role in ``pins``, a model pool of that one model."""
+def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, str] | None = None,
+              grasp_cycle: int = 0) -> Path:
+    """An ``MGDATA_ROOT`` copy whose ``recipes/<family>.toml`` has ``count`` tasks, ``cameras``, for each
+    role in ``pins`` a model pool of that one model, and ``grasp_cycle`` in ``[params]``."""
     if out.exists():
         shutil.rmtree(out)
     (out / "recipes").mkdir(parents=True)
@@ -95,6 +103,8 @@ def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, 
     for role, model in (pins or {}).items():
         text = re.sub(rf"(?ms)(^\[layout\.roles\.{role}\]\s*\nmodels = )\[[^\]]*\]", rf'\1["{model}"]', text,
                       count=1)
+    text = re.sub(r"(?m)^grasp_cycle = .*\n", "", text)
+    text = re.sub(r"(?m)^\[params\]\s*$", f"[params]\ngrasp_cycle = {grasp_cycle}", text, count=1)
     (out / "recipes" / f"{family}.toml").write_text(text)
     return out
 
@@ -212,7 +222,11 @@ def main() -> None:
     p.add_argument("--protocol", choices=("family", "single"), default="family")
     p.add_argument("--family", default="jar")
     p.add_argument("--tasks", type=int, default=26, help="base tasks trained on (family) ")
-    p.add_argument("--per-task", type=int, default=None, help="kept demos per task (family 8, single 60)")
+    p.add_argument("--layouts", type=int, default=20, help="layouts of the one task trained on (single)")
+    p.add_argument("--per-task", type=int, default=None, help="kept demos per task (family 8, single 3)")
+    p.add_argument("--grasp-cycle", type=int, default=1,
+                   help="the recipe's grasp_cycle: demos cycle through this many of the most natural "
+                        "reachable grasps (0: all, round-robin; the recipes' default)")
     p.add_argument("--heldout", type=int, default=None, help="held-out draws (family 100, single 30)")
     p.add_argument("--variants", default="location,target", help="OOD conditions evaluated besides base")
     p.add_argument("--steps", type=int, default=6000)
@@ -237,17 +251,18 @@ def main() -> None:
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
     single = args.protocol == "single"
-    per_task = args.per_task or (60 if single else 8)
+    per_task = args.per_task or (3 if single else 8)
     heldout = args.heldout if args.heldout is not None else (30 if single else 100)
-    ntasks = 1 if single else args.tasks
+    ntasks = args.layouts if single else args.tasks
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     count = ntasks + heldout
     pins = task0_models(args.family) if single else None
-    train_root = make_root(out / "root_train", args.family, count, "[]", pins)
-    eval_root = make_root(out / "root_eval", args.family, count, '["front", "wrist"]', pins)
+    train_root = make_root(out / "root_train", args.family, count, "[]", pins, args.grasp_cycle)
+    eval_root = make_root(out / "root_eval", args.family, count, '["front", "wrist"]', pins, args.grasp_cycle)
     t_start = time.time()
     report: dict = {"protocol": args.protocol, "family": args.family, "per_task": per_task, "tasks": ntasks,
+                    "grasp_cycle": args.grasp_cycle,
                     "heldout": heldout, "args": {k: str(v) for k, v in vars(args).items()}}
     data, state = out / "data", out / "data_state"
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)

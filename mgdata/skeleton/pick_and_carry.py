@@ -5,9 +5,11 @@ The paper's pick: open, move to a pre-grasp pose ``grasp_standoff`` back along t
 ``lift_margin`` above the tallest other object (at least ``lift_height``), carry it (free, or ``level`` in a
 straight line; slowed to ``carry_speed``) over the goal, lower it into the goal (linear) and hold it there.
 Grasps come from the grasp DB, round-robin over the task's reachable valid grasps
-(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check). Objects riding inside the held
-one (food in a jar, liquid in a cup) are the segments' ``riders``. For families that put an object down:
-:meth:`PickAndCarry.place_segments` (lower, release, retreat).
+(:meth:`PickAndCarry.reachable_grasps`, also the initial-state gate's check), or, with ``grasp_cycle`` k > 0,
+over the k most natural of them (the arm at the pre-grasp nearest its home posture, reached on that same
+branch by every draw: one grasp and one arm configuration per layout at k = 1, data a policy can imitate).
+Objects riding inside the held one (food in a jar, liquid in a cup) are the segments' ``riders``. For
+families that put an object down: :meth:`PickAndCarry.place_segments` (lower, release, retreat).
 
 A skeleton declares the keys it reads as ``PICK_AND_CARRY_KEYS`` + its own::
 
@@ -31,7 +33,7 @@ from mgdata.episode.gate import AttemptFailed
 from mgdata.grasps.db import Grasp
 from mgdata.motion import NO_CONTACTS, AllowedContacts, MotionFailure, Pose
 from mgdata.sim.geometry import LowestPoint
-from mgdata.sim.robot import ROOT_BODY
+from mgdata.sim.robot import HOME_Q, ROOT_BODY
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
@@ -56,6 +58,8 @@ PICK_AND_CARRY_KEYS = RecipeKeys(
               0.0, 0.05),
         Param("reach_standoff", float, "m pre-grasp standoff used to test which grasps are reachable",
               0.0, 0.3),
+        Param("grasp_cycle", int, "reachable grasps the draws cycle through, most natural first (0: all, "
+              "in the grasp DB's order)", 0, 1000, default=0),
         Param("carry_yaws_deg", tuple, "turns of the object about the vertical tried at the goal (deg)",
               -180.0, 180.0),
     ),
@@ -166,8 +170,15 @@ class PickAndCarry:
 
     # -- grasps ----------------------------------------------------------------------------------------------
     def choose_grasp(self, ctx: Context) -> Grasp:
-        """This attempt's grasp: round-robin (by draw) over the task's reachable valid grasps."""
+        """This attempt's grasp: round-robin (by draw) over the task's reachable valid grasps, or over the
+        ``grasp_cycle`` most natural of them."""
         reachable = self._reachable(ctx)
+        cycle = int(ctx.param("grasp_cycle"))
+        seeds: dict[str, np.ndarray] = {}
+        if cycle and reachable:
+            seeds = dict(self._most_natural_first(ctx, reachable)[:cycle])
+            by_id = {g.id: g for g in reachable}
+            reachable = tuple(by_id[i] for i in seeds) or reachable
         if not reachable:
             model, n = ctx.task.object(self.obj).model, len(ctx.grasps.get(self.obj, ()))
             why = (f"none of the {n} valid grasps of {model} is reachable from here" if n else
@@ -175,9 +186,28 @@ class PickAndCarry:
             raise AttemptFailed("no_grasp", why)
         grasp = reachable[ctx.variation.pick(len(reachable))]
         ctx.memo[self.name("grasp")] = grasp
+        if grasp.id in seeds:
+            ctx.q_hints[self.name("pre_grasp")] = seeds[grasp.id]
         if not self.tag:
             ctx.memo["grasp_id"] = grasp.id
         return grasp
+
+    def _most_natural_first(self, ctx: Context, grasps: tuple[Grasp, ...]) -> list[tuple[str, np.ndarray]]:
+        """``(grasp id, arm configuration)`` of ``grasps``, the arm at the pre-grasp (``reach_standoff``
+        back, IK from the home posture) nearest the home posture first, the DB's order breaking ties. The
+        configuration seeds the pre-grasp's IK (``ctx.q_hints``), so every draw reaches it on one branch."""
+        obj = ctx.object_pose(self.obj).matrix()
+        rng = ctx.task_rng("grasp_rank")
+        ranked: list[tuple[float, int, Grasp, np.ndarray]] = []
+        for k, grasp in enumerate(grasps):
+            pre = backed_off(Pose.from_matrix(obj @ grasp.matrix()), float(ctx.param("reach_standoff")))
+            try:
+                q = ctx.planner.ik(pre, HOME_Q, rng)
+            except MotionFailure:
+                continue
+            ranked.append((float(np.linalg.norm(q - HOME_Q)), k, grasp, q))
+        ranked.sort(key=lambda r: (r[0], r[1]))
+        return [(r[2].id, r[3]) for r in ranked]
 
     def reachable_grasps(self, ctx: Context, allowed: AllowedContacts = NO_CONTACTS) -> tuple[Grasp, ...]:
         """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses (raised by the draw's

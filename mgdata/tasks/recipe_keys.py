@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +37,8 @@ class Param:
             numbers, read as a tuple of floats).
         doc: one line: what it is, with its unit.
         low, high: inclusive bounds of the value (of every element, for a tuple); ``None``: unbounded.
+        default: the value when a recipe leaves the key out (``None``: the key is required). Only for keys
+            added after recipes existed, so that their datasets and digests stay as they were.
     """
 
     name: str
@@ -44,6 +46,7 @@ class Param:
     doc: str
     low: float | None = None
     high: float | None = None
+    default: Any = None
 
     def __post_init__(self) -> None:
         if self.kind not in NUMBER_KINDS:
@@ -93,10 +96,11 @@ class RecipeKeys:
 
 def check_params(raw: Mapping[str, Any], declared: tuple[Param, ...], where: str) -> dict[str, Any]:
     """``[params]`` as typed values (floats, ints, tuples of floats), in declaration order."""
-    _check_names(raw, [p.name for p in declared], where)
+    _check_names(raw, [p.name for p in declared], where,
+                 optional=[p.name for p in declared if p.default is not None])
     out: dict[str, Any] = {}
     for p in declared:
-        out[p.name] = _param_value(raw[p.name], p, f"{where} {p.name}")
+        out[p.name] = _param_value(raw.get(p.name, p.default), p, f"{where} {p.name}")
     return out
 
 
@@ -120,13 +124,13 @@ def check_variation(raw: Mapping[str, Any], declared: tuple[Knob, ...],
     return out
 
 
-def _check_names(raw: Mapping[str, Any], known: list[str], where: str) -> None:
+def _check_names(raw: Mapping[str, Any], known: list[str], where: str, optional: Sequence[str] = ()) -> None:
     for key in raw:
         if key not in known:
             close = difflib.get_close_matches(str(key), known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise RecipeError(f"{where} unknown key {key!r}{hint} (known: {', '.join(known) or 'none'})")
-    missing = [k for k in known if k not in raw]
+    missing = [k for k in known if k not in raw and k not in optional]
     if missing:
         raise RecipeError(f"{where} missing key(s) {', '.join(map(repr, missing))} (the skeleton reads them)")
 
