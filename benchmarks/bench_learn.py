@@ -116,6 +116,43 @@ def task0_models(family: str) -> dict[str, str]:
     return {o.name: o.model for o in base_task(load_recipe(family), 0).objects}
 
 
+def demo_spread(data: Path) -> dict:
+    """How alike the demos of a layout are: distinct grasps per layout, the arm configuration at the carry's
+    grasp (the gripper's first close after its first open) as std per joint across all demos and as the
+    largest spread within one layout, and how many demos swing joint 1 past ±1.5 rad."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    meta = pa.concat_tables([pq.read_table(f, columns=["mgdata/task_id", "mgdata/grasp_id"])
+                             for f in sorted(data.glob("meta/episodes/*/*.parquet"))])
+    frames = pa.concat_tables([pq.read_table(f, columns=["episode_index", "observation.state", "action"])
+                               for f in sorted(data.glob("data/*/*.parquet"))])
+    ep = frames.column("episode_index").to_numpy()
+    state = np.stack(frames.column("observation.state").to_numpy(zero_copy_only=False))[:, :7]
+    grip = np.stack(frames.column("action").to_numpy(zero_copy_only=False))[:, 7]
+    tasks, grasps = meta.column("mgdata/task_id").to_pylist(), meta.column("mgdata/grasp_id").to_pylist()
+    at_grasp, twisted = {}, 0
+    for e in range(meta.num_rows):
+        q, g = state[ep == e], grip[ep == e]
+        opened = np.flatnonzero(np.diff(g) < 0)
+        closes = [k for k in np.flatnonzero(np.diff(g) > 0) if opened.size and k > opened[0]]
+        twisted += bool(np.abs(q[:, 0]).max() > 1.5)
+        if closes:
+            at_grasp[e] = q[closes[0] + 1]
+    by_task: dict[int, list[int]] = {}
+    for e, t in enumerate(tasks):
+        by_task.setdefault(t, []).append(e)
+    within = [float(np.ptp(np.stack([at_grasp[e] for e in es if e in at_grasp]), axis=0).max())
+              for es in by_task.values() if sum(e in at_grasp for e in es) > 1]
+    per_layout = [len({grasps[e] for e in es}) for es in by_task.values()]
+    std = np.stack(list(at_grasp.values())).std(axis=0)
+    return {"grasps_per_layout": round(float(np.mean(per_layout)), 2),
+            "grasp_config_std_rad": [round(float(v), 2) for v in std],
+            "max_spread_within_layout_rad": round(max(within, default=0.0), 3),
+            "demos_joint1_past_1.5rad": twisted}
+
+
 def loss_curve(train_log: Path, log_freq: int) -> list[tuple[int, float]]:
     """(step, loss) of lerobot-train's log lines (``step:2K … loss:0.123``; LeRobot rounds the step, so the
     k-th line is taken as step ``k * log_freq``)."""
@@ -278,7 +315,9 @@ def main() -> None:
     report["data"] = {"episodes": info["total_episodes"], "frames": info["total_frames"],
                       "wall_s": round(time.time() - t0, 1),
                       "cpu_s": round(c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, 1),
-                      "environment_state": info["features"]["observation.environment_state"]["names"]}
+                      "environment_state": info["features"]["observation.environment_state"]["names"],
+                      "spread": demo_spread(data)}
+    log(f"demos alike: {report['data']['spread']}")
     log(f"data: {report['data']['episodes']} episodes, {report['data']['frames']} frames")
     scen = {"seen": out / "scen_seen", "heldout": out / "scen_heldout"}
     conds = ["base", *[c for c in args.variants.split(",") if c]]
