@@ -1,6 +1,7 @@
 """Every server binds 127.0.0.1 unless ``--host`` says otherwise, and the teleop operator page and the
 annotator's viser server survive hostile clients (issue 26 §4; the policy server's own tests are in
-tests/evaluate/test_server_hostile.py)."""
+tests/evaluate/test_server_hostile.py, the annotator's behind its message gate in
+tests/annotator/test_annotator_hostile.py)."""
 
 from __future__ import annotations
 
