@@ -85,8 +85,13 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Session]:
     assert set(controls) == LABELS, controls
     yield Session(proc, port, root, controls)
     proc.terminate()
-    proc.wait(timeout=30)
-    stderr.close()
+    try:
+        proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail("mgdata annotate did not stop within 30 s of SIGTERM")
+    finally:
+        stderr.close()
     text = (root / "stderr.txt").read_text()
     assert "Traceback" not in text and "Share URL" not in text, text  # bad messages are not its failures
 
