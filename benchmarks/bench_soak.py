@@ -10,11 +10,11 @@ injects at least one fault. A chain passes when the final output equals the unin
 for byte (every file, the work area ``.mgdata`` excepted) and no stale state is left: no ``.mgdata`` work
 area, no lock file beside the output (``.<name>.lock``), no ``*.partial`` folder, no ``*.tmp`` file, no
 process of the command still alive. The commands, round-robin: ``generate`` of each family in ``--families``
-(its recipe with one 32² camera, ``--n 2``, task 0, two workers), ``render`` (a generated jar dataset at 48²,
-two cameras), ``merge`` (two ``--shard`` datasets of jar), ``scenarios build`` (jar tasks 0-1, base + target)
-and ``eval`` (``mgdata serve hold``, two seeds, horizon 40), families and the other commands alternating.
-``--minutes M`` starts no chain after M minutes and prints the summary of what ran, with the kills per
-command.
+(its recipe with one 32² camera, ``--n 2`` (``--n``), task 0, two workers), ``render`` (a generated jar
+dataset at 48², two cameras), ``merge`` (two ``--shard`` datasets of jar), ``scenarios build`` (jar tasks 0-1,
+base + target) and ``eval`` (``mgdata serve hold``, two seeds, horizon 40), families and the other commands
+alternating. Each command's uninterrupted run comes just before its first chain. ``--minutes M`` starts no
+chain after M minutes and prints the summary of what ran, with the kills per command.
 
 **RSS.** ``--rss``: ``mgdata generate --family all --per-task K --tasks T --workers W`` with the shipped
 recipes, sampling the resident set size of the main process and of every worker (``/proc``) every second,
@@ -112,12 +112,12 @@ def run(argv: list[str], timeout: float = 3600) -> subprocess.CompletedProcess:
     return subprocess.run([MGDATA, *argv], capture_output=True, text=True, timeout=timeout, env=ENV)
 
 
-def prepare(tmp: Path, families: list[str], log: Callable[[str], None]) -> list[Command]:
+def prepare(tmp: Path, families: list[str], n: int, log: Callable[[str], None]) -> list[Command]:
     recipes = {f: small_recipe(f, tmp / "recipes") for f in {*families, "jar"}}
     commands = []
     for f in families:
         commands.append(Command(f"generate {f}", lambda out, f=f: [
-            "generate", "--family", f, "--recipe", str(recipes[f]), "--n", "2", "--tasks", "0",
+            "generate", "--family", f, "--recipe", str(recipes[f]), "--n", str(n), "--tasks", "0",
             "--workers", "2", "--out", str(out)]))
     base = tmp / "inputs"
     jar = base / "jar"
@@ -159,6 +159,7 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=30, help="kill -9 faults to inject (at least)")
     parser.add_argument("--families", default="cabinet,clutter_liquid,dusty,jar,clutter_dry,stack,lid")
     parser.add_argument("--commands", default="all", help="'all', or a comma list of command names")
+    parser.add_argument("--n", type=int, default=2, help="kept episodes of each family's generate")
     parser.add_argument("--rekill", type=float, default=0.3, help="chance of killing a resumed run again")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--minutes", type=float, default=None,
@@ -191,12 +192,14 @@ def main() -> None:
 def trials(tmp: Path, args: argparse.Namespace, log: Callable[[str], None]) -> None:
     rng = random.Random(args.seed)
     families = [f for f in args.families.split(",") if f]
-    commands = prepare(tmp, families, log)
+    commands = prepare(tmp, families, args.n, log)
     if args.commands != "all":
         wanted = set(args.commands.split(","))
         commands = [c for c in commands if c.name in wanted or c.name.split()[0] in wanted]
     start_all = time.monotonic()
-    for c in commands:  # the uninterrupted reference run of each
+
+    def reference(c: Command) -> None:
+        """The uninterrupted run of ``c``, before its first chain (a run cut short still has chains)."""
         out = tmp / "ref" / c.name.replace(" ", "_")
         start = time.monotonic()
         proc = run(c.argv(out))
@@ -212,6 +215,8 @@ def trials(tmp: Path, args: argparse.Namespace, log: Callable[[str], None]) -> N
     while faults < args.trials and (args.minutes is None or time.monotonic() - start_all < 60 * args.minutes):
         c = commands[k % len(commands)]
         k += 1
+        if not c.reference:
+            reference(c)
         out = tmp / "trial" / f"{k:03d}_{c.name.replace(' ', '_')}"
         kills, runs, missed = 0, 0, 0
         span = c.wall  # the kill moment is drawn within this: the reference run's time, then the missed run's
