@@ -33,6 +33,7 @@ from mgdata.annotator.objectscene import ObjectScene
 from mgdata.annotator.placements import recipe_placements
 from mgdata.annotator.store import GraspStore
 from mgdata.annotator.view import GHOST, View
+from mgdata.annotator.wire import guard, unguard
 from mgdata.annotator.worker import Done, LatestWorker
 from mgdata.grasps.check import GraspCheckConfig, check_grasp
 from mgdata.grasps.config import load_grasp_config
@@ -59,6 +60,7 @@ class Annotator:
         self._closed = False
         self._seq = 0
         self.server = viser.ViserServer(host=host, port=port, label="mgdata annotate", verbose=False)
+        guard(self.server)  # what a browser sends is checked before viser's handlers see it
         self.view = View(self.server, self._clicked, self._gizmo_moved)
         self._build_gui()
         self.worker: LatestWorker[Verdict] = LatestWorker(self._run_check, self._show_verdict)
@@ -293,6 +295,7 @@ class Annotator:
         with self._lock:
             self._closed = True
         self.worker.close()
+        unguard(self.server)
         self.server.stop()
 
 

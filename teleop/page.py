@@ -37,7 +37,8 @@ SEND_TIMEOUT_S = 0.5
 MAX_BODY_BYTES = 4096
 """The largest request body read (a command's is empty); a larger one is refused with 413."""
 REQUEST_TIMEOUT_S = 10.0
-"""A client that has not sent its whole request within this long (s) is disconnected."""
+"""A client that has not sent its whole request within this long (s) is disconnected (the default of
+``OperatorPage(request_timeout_s=…)``; a kept-alive connection that sends nothing more ends then too)."""
 
 
 class _Client:
@@ -68,8 +69,10 @@ class OperatorPage:
     """
 
     def __init__(self, host: str, port: int, scene_port: int, on_command: Callable[[str], None],
-                 buttons: Sequence[tuple[str, str, str]], title: str) -> None:
+                 buttons: Sequence[tuple[str, str, str]], title: str,
+                 request_timeout_s: float = REQUEST_TIMEOUT_S) -> None:
         self.url = f"http://{host}:{port}/"
+        self.request_timeout_s = request_timeout_s
         self.scene_port = scene_port
         self._commands = {cmd for _label, cmd, _key in buttons}
         self._on_command = on_command
@@ -124,7 +127,7 @@ class OperatorPage:
 
         class Handler(http.server.BaseHTTPRequestHandler):
             protocol_version = "HTTP/1.1"
-            timeout = REQUEST_TIMEOUT_S  # a slow or silent client ties up only its own thread, briefly
+            timeout = page.request_timeout_s  # a slow or silent client ties up only its own thread, briefly
             # malformed requests (bad request line, unknown method) get one plain line, not an HTML page
             error_message_format = "error: %(code)d %(message)s\n"
             error_content_type = "text/plain; charset=utf-8"

@@ -1,6 +1,7 @@
 """Every server binds 127.0.0.1 unless ``--host`` says otherwise, and the teleop operator page and the
 annotator's viser server survive hostile clients (issue 26 §4; the policy server's own tests are in
-tests/evaluate/test_server_hostile.py)."""
+tests/evaluate/test_server_hostile.py, the annotator's behind its message gate in
+tests/annotator/test_annotator_hostile.py)."""
 
 from __future__ import annotations
 
@@ -45,12 +46,14 @@ def test_every_server_binds_loopback_by_default() -> None:
         assert inspect.signature(cls).parameters["host"].default == "127.0.0.1", cls
 
 
-@pytest.fixture()
-def page():
+@pytest.fixture(params=[10.0])
+def page(request: pytest.FixtureRequest):
+    """An operator page; its request timeout (s) is the param (the shipped 10 s unless a test says)."""
     from mgdata.teleop.page import OperatorPage
 
     commands: list[str] = []
-    page = OperatorPage("127.0.0.1", 0, 1, commands.append, (("Record", "record", "r"),), "t")
+    page = OperatorPage("127.0.0.1", 0, 1, commands.append, (("Record", "record", "r"),), "t",
+                        request_timeout_s=request.param)
     yield page, page._httpd.server_address[1], commands
     page.close()
 
@@ -88,6 +91,7 @@ def command_works(port: int) -> None:
         assert reply.status == 204
 
 
+@pytest.mark.parametrize("page", [1.0], indirect=True)  # a kept-alive reply's connection ends 1 s later
 def test_the_operator_page_answers_hostile_requests_with_one_line(page: tuple) -> None:
     _, port, commands = page
     cases = [
@@ -100,7 +104,9 @@ def test_the_operator_page_answers_hostile_requests_with_one_line(page: tuple) -
         (b"GET /" + b"a" * 70000 + b" HTTP/1.1\r\n\r\n", "414"),
     ]
     for request, code in cases:
+        t0 = time.monotonic()
         reply = raw(port, request)
+        assert time.monotonic() - t0 < 5.0, request[:60]  # closed by the server (at most 1 s idle), not us
         assert status(reply) == code, reply[:200]
         body_line(reply)
     assert commands == []

@@ -10,7 +10,6 @@ import typer
 from rich.table import Table
 
 from mgdata.console import plain_console
-from mgdata.evaluate.page import write_results_page
 from mgdata.metrics import Metrics, format_rate, load_records, metrics_by
 
 
@@ -37,6 +36,8 @@ def metrics_command(
     loaded = load_records(records)
     groups = metrics_by(loaded, keys)
     if html is not None:
+        from mgdata.evaluate.page import write_results_page  # here: it pulls in the asset library
+
         write_results_page(loaded, html)
     if as_json:
         typer.echo(json.dumps({"unit": "percent", "by": list(keys), "groups": [m.as_dict() for m in groups]},

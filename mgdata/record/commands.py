@@ -10,7 +10,6 @@ from typing import Annotated
 import typer
 
 from mgdata.errors import DatasetError
-from mgdata.record.export import export_dataset
 from mgdata.record.summary import format_summary, summarize
 from mgdata.record.validate import validate_dataset
 from mgdata.record.views import FORMATS
@@ -105,6 +104,8 @@ def register(app: typer.Typer) -> None:
         if unknown:
             raise DatasetError(f"--add {unknown[0]!r}: expected environment_state")
         cams = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
+        from mgdata.record.export import export_dataset  # here: the v2.1 writer is slow to import
+
         path = export_dataset(dataset, out, fmt, overview=overview, wrist=wrist, cameras=cams,
                               add_environment_state=bool(add))
         typer.echo(f"wrote {path} ({fmt})")

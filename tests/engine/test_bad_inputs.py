@@ -1,5 +1,7 @@
 """The input holes of issue 8 §5, through the real ``mgdata`` command: each bad input ends as one literal
-``error:`` line naming the problem, exit status 2, no traceback, and nothing already written is lost."""
+``error:`` line naming the problem, exit status 2, no traceback, and nothing already written is lost.
+Inputs refused before any work runs go through the real entry point in this process (``mgdata_here``);
+the rest (workers, kills, full disks, another user, the environment) run as ``mgdata`` processes."""
 
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from mgdata.generate.workers import AttemptPool, WorkerConfig
 from mgdata.paths import grasps_dir, recipes_dir
 from mgdata.record.video import VideoSettings
 from mgdata.tasks.recipe import family_recipes
+from tests.helpers.cli import mgdata_here
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 SPEC = recipes_dir() / "specs" / "jar.toml"
@@ -58,9 +61,12 @@ def small_recipe(folder: Path, *edits: tuple[str, str], spec: Path = SPEC) -> Pa
     return path
 
 
-def generate(out: Path, recipe: Path, n: int = 1, *extra: str, **kw) -> subprocess.CompletedProcess:
-    return mgdata("generate", "--family", "jar", "--n", str(n), "--out", out, "--recipe", recipe,
-                  "--tasks", "0", "--workers", "1", *extra, **kw)
+def generate(out: Path, recipe: Path, n: int = 1, *extra: str, here: bool = False,
+             **kw) -> subprocess.CompletedProcess:
+    """``mgdata generate`` of jar task 0 (``here``: in this process, for input refused up front)."""
+    run = mgdata_here if here else mgdata
+    return run("generate", "--family", "jar", "--n", str(n), "--out", out, "--recipe", recipe, "--tasks", "0",
+               "--workers", "1", *extra, **kw)
 
 
 def files(root: Path) -> dict[str, bytes]:
@@ -138,33 +144,36 @@ def test_a_worker_that_dies_ends_the_run(tmp_path: Path) -> None:
 def test_misspelled_variation_knob_is_named_literally(tmp_path: Path) -> None:
     recipe = small_recipe(tmp_path / "r", ("lift_height = [0.05", "lift_heigth = [0.05"))
     out = tmp_path / "out"
-    one_error(generate(out, recipe), "[variation] unknown key 'lift_heigth'; did you mean 'lift_height'?")
+    one_error(generate(out, recipe, here=True),
+              "[variation] unknown key 'lift_heigth'; did you mean 'lift_height'?")
     assert not out.exists()
 
 
 def test_missing_params_key_is_named(tmp_path: Path) -> None:
     recipe = small_recipe(tmp_path / "r", ("close_steps = 12", ""))
-    one_error(generate(tmp_path / "out", recipe), "[params] missing key(s) 'close_steps'")
+    one_error(generate(tmp_path / "out", recipe, here=True), "[params] missing key(s) 'close_steps'")
     assert not (tmp_path / "out").exists()
 
 
 def test_wrong_types_in_the_recipe(tmp_path: Path) -> None:
     recipe = small_recipe(tmp_path / "r", ('cameras = ["front", "wrist"]', "cameras = 5"))
-    one_error(generate(tmp_path / "out", recipe), "[tasks] cameras = 5: expected a subset of")
+    one_error(generate(tmp_path / "out", recipe, here=True), "[tasks] cameras = 5: expected a subset of")
     recipe = small_recipe(tmp_path / "r2", ("carry_speed = 0.5", 'carry_speed = "fast"'))
-    one_error(generate(tmp_path / "out", recipe), "carry_speed = 'fast': expected a number in [0.01, 1]")
+    one_error(generate(tmp_path / "out", recipe, here=True),
+              "carry_speed = 'fast': expected a number in [0.01, 1]")
 
 
 def test_spec_formula_beyond_the_limits_is_refused_by_generate(tmp_path: Path) -> None:
     spec = tmp_path / "spec.toml"
     deep = "(" * 200 + "jar_upright" + ")" * 200
     spec.write_text(SPEC.read_text().replace('formula = "G jar_upright"', f'formula = "G {deep}"'))
-    one_error(generate(tmp_path / "out", small_recipe(tmp_path / "r", spec=spec)), "levels of nesting")
+    one_error(generate(tmp_path / "out", small_recipe(tmp_path / "r", spec=spec), here=True),
+              "levels of nesting")
     assert not (tmp_path / "out").exists()
 
 
 def test_family_name_with_markup_is_printed_literally() -> None:
-    line = one_error(mgdata("generate", "--family", "a[/x]", "--n", "1"), "no recipe for family 'a[/x]'")
+    line = one_error(mgdata_here("generate", "--family", "a[/x]", "--n", "1"), "no recipe for family 'a[/x]'")
     # settings files such as sim.toml are no family recipes
     assert line.endswith(f"(family recipes: {', '.join(family_recipes())})")
     assert "sim" not in family_recipes() and "jar" in family_recipes()
@@ -172,7 +181,7 @@ def test_family_name_with_markup_is_printed_literally() -> None:
 
 @pytest.mark.parametrize("workers", ["0", "-1"])
 def test_workers_below_one_is_refused(workers: str) -> None:
-    proc = mgdata("generate", "--n", "1", "--workers", workers)
+    proc = mgdata_here("generate", "--n", "1", "--workers", workers)
     one_error(proc, f"--workers must be at least 1, got {workers}")
 
 
@@ -185,7 +194,7 @@ def test_workers_below_one_is_refused(workers: str) -> None:
 ])
 def test_out_that_cannot_be_a_folder(tmp_path: Path, make, fragment: str) -> None:  # type: ignore[no-untyped-def]
     out = make(tmp_path)
-    one_error(generate(out, small_recipe(tmp_path / "r")), f"--out {out}: {fragment}")
+    one_error(generate(out, small_recipe(tmp_path / "r"), here=True), f"--out {out}: {fragment}")
 
 
 @pytest.fixture
@@ -248,7 +257,7 @@ def test_resume_with_another_recipe_after_deleting_the_state_file(tmp_path: Path
     (out / "meta/mgdata_generate.json").unlink()
     before = files(out)
     other = small_recipe(tmp_path / "other", ("carry_speed = 0.5", "carry_speed = 0.4"))
-    one_error(generate(out, other, 2), str(out / "meta/info.json"), "inputs_digest=")
+    one_error(generate(out, other, 2, here=True), str(out / "meta/info.json"), "inputs_digest=")
     assert files(out) == before  # nothing touched, nothing mixed
 
 
@@ -270,8 +279,8 @@ def test_stale_state_after_kill_before_save_is_repaired(demo_copy: tuple[Path, P
 def test_metrics_on_unreadable_records(tmp_path: Path) -> None:
     binary = tmp_path / "r.jsonl"
     binary.write_bytes(b"\xff\xfe{}\n")
-    one_error(mgdata("metrics", binary), f"{binary}: not a UTF-8 text file")
-    one_error(mgdata("metrics", tmp_path), f"{tmp_path}: is a folder")
+    one_error(mgdata_here("metrics", binary), f"{binary}: not a UTF-8 text file")
+    one_error(mgdata_here("metrics", tmp_path), f"{tmp_path}: is a folder")
 
 
 @pytest.mark.parametrize(("key", "value"), [("total_episodes", "x"), ("fps", "20"), ("features", []),
@@ -280,20 +289,20 @@ def test_info_with_wrong_typed_fields(demo_copy: tuple[Path, Path], key: str, va
     _, out = demo_copy
     path = out / "meta/info.json"
     path.write_text(json.dumps(json.loads(path.read_text()) | {key: value}))
-    one_error(mgdata("info", out), f"{path}: {key} = {value!r} has the wrong type")
-    check = mgdata("validate", out)  # a corrupt dataset is an invalid one: exit 1 with its problem
+    one_error(mgdata_here("info", out), f"{path}: {key} = {value!r} has the wrong type")
+    check = mgdata_here("validate", out)  # a corrupt dataset is an invalid one: exit 1 with its problem
     assert check.returncode == 1 and "has the wrong type" in check.stdout and "Traceback" not in check.stderr
 
 
 def test_validate_exit_codes(demo_copy: tuple[Path, Path], tmp_path: Path) -> None:
     _, out = demo_copy
-    assert mgdata("validate", out).returncode == 0
-    one_error(mgdata("validate", tmp_path / "nothing"), "no such dataset folder")
+    assert mgdata_here("validate", out).returncode == 0
+    one_error(mgdata_here("validate", tmp_path / "nothing"), "no such dataset folder")
 
 
 def test_sweep_other_commands(tmp_path: Path) -> None:
     """Found by the hostile sweep: each was a traceback or a silent success."""
-    one_error(mgdata("generate", "--n", "1", "--recipe", tmp_path), f"recipe {tmp_path}: cannot be read")
-    one_error(mgdata("generate", "--n", "1", "--tasks", "3-1"), "--tasks '3-1': expected 'all' or ids")
-    one_error(mgdata("preview", tmp_path / "nothing"), "no such dataset folder")
-    one_error(mgdata("grasps", "list", "--dir", tmp_path / "nothing"), "no such grasp database folder")
+    one_error(mgdata_here("generate", "--n", "1", "--recipe", tmp_path), f"recipe {tmp_path}: cannot be read")
+    one_error(mgdata_here("generate", "--n", "1", "--tasks", "3-1"), "--tasks '3-1': expected 'all' or ids")
+    one_error(mgdata_here("preview", tmp_path / "nothing"), "no such dataset folder")
+    one_error(mgdata_here("grasps", "list", "--dir", tmp_path / "nothing"), "no such grasp database folder")

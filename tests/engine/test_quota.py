@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from mgdata.generate.resume import DrawCursor
 from mgdata.generate.run import GenerateJob, generate
 from mgdata.record.reader import DatasetReader
+from tests.helpers.cli import mgdata_here
 from tests.helpers.generate import low_yield_recipe
 from tests.helpers.record import dataset_files
 
@@ -53,8 +54,7 @@ def test_per_task_and_n_exclude_each_other_and_all_takes_no_recipe(tmp_path: Pat
     for args, message in ((["--per-task", "2", "--n", "3"], "exclude each other"),
                           (["--family", "all", "--recipe", str(tmp_path / "x.toml")], "--recipe"),
                           (["--per-task", "0"], "--per-task must be at least 1")):
-        proc = subprocess.run([*MGDATA, "generate", "--out", str(tmp_path / "o"), *args], capture_output=True,
-                              text=True, timeout=120)
+        proc = mgdata_here("generate", "--out", tmp_path / "o", *args)  # refused up front: in this process
         assert proc.returncode == 2 and proc.stderr.startswith("error: ") and message in proc.stderr, \
             (args, proc.stderr)
         assert "Traceback" not in proc.stderr

@@ -11,6 +11,7 @@ import pytest
 from mgdata.errors import DatasetError
 from mgdata.generate.merge import merge_shards
 from mgdata.generate.run import GenerateJob, failed_path, generate
+from tests.helpers.cli import mgdata_here
 from tests.helpers.generate import low_yield_recipe
 from tests.helpers.record import dataset_files
 
@@ -21,11 +22,10 @@ def test_shard_needs_a_quota_and_a_valid_index(tmp_path: Path) -> None:
     for args, message in ((["--shard", "0/2"], "--shard needs --per-task"),
                           (["--shard", "2/2", "--per-task", "1"], "0 <= i < N"),
                           (["--shard", "x", "--per-task", "1"], "expected i/N")):
-        proc = subprocess.run([*MGDATA, "generate", "--out", str(tmp_path / "o"), *args], capture_output=True,
-                              text=True, timeout=120)
+        proc = mgdata_here("generate", "--out", tmp_path / "o", *args)  # refused up front: in this process
         assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
     proc = subprocess.run([*MGDATA, "merge", str(tmp_path / "nosuch"), "--out", str(tmp_path / "m")],
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=120)  # and once as a real process
     assert proc.returncode == 2 and "no such dataset folder" in proc.stderr
     assert not (tmp_path / "o").exists() and not (tmp_path / "m").exists()
 

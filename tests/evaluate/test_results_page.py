@@ -3,6 +3,7 @@ the rate `mgdata metrics` computes, n/a where EVR is undefined, and the metric t
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import pytest
 
 from mgdata.evaluate.page import write_results_page
 from mgdata.metrics import metrics_by, parse_record
+from tests.helpers.cli import mgdata_here
 
 
 def _record(family: str, condition: str, seed: int, success: bool, t_engage: int | None,
@@ -58,3 +60,12 @@ def test_the_page_shows_the_metrics_in_chromium(tmp_path: Path) -> None:
         assert box is not None and box["width"] > 100 and box["height"] > 200
         browser.close()
     assert errors == [] and requests == [page.as_uri()]  # self-contained: nothing else is fetched
+
+
+def test_metrics_html_writes_the_page(tmp_path: Path) -> None:
+    records = tmp_path / "rollouts.jsonl"
+    rows = [_record("jar", "base", s, s == 0, 10, None) for s in (0, 1)]
+    records.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    proc = mgdata_here("metrics", records, "--html", tmp_path / "results.html")
+    assert proc.returncode == 0, proc.stderr
+    assert "jar" in (tmp_path / "results.html").read_text()

@@ -6,10 +6,17 @@ import shutil
 import socket
 import time
 
+import msgspec
 import numpy as np
 import pytest
+import zstandard
 
 START = "jar/hinged_03"
+CAMERA = msgspec.msgpack.encode({
+    "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.3, -0.3, 0.3], "fov": 1.0,
+    "near": 0.01, "far": 100.0, "image_height": 800, "image_width": 1280, "look_at": [0.0, 0.0, 0.0],
+    "up_direction": [0.0, 0.0, 1.0]})
+"""The first message viser's browser client sends (a client counts as connected from then on)."""
 
 
 def chromium_path() -> str:
@@ -51,3 +58,16 @@ def project(app, point, size: tuple[int, int]) -> tuple[float, float]:
     half = np.tan(cam.fov / 2.0) * depth
     ndc_x, ndc_y = float(d @ right) / (half * size[0] / size[1]), float(d @ up) / half
     return (ndc_x + 1.0) / 2.0 * size[0], (1.0 - ndc_y) / 2.0 * size[1]
+
+
+def viser_messages(raw: bytes) -> list[dict]:
+    """The messages of one frame viser's server sends (zstd-compressed msgpack after two 8-byte sizes;
+    binary buffers after it are left out)."""
+    size, compressed = int.from_bytes(raw[:8], "little"), int.from_bytes(raw[8:16], "little")
+    inner = zstandard.ZstdDecompressor().decompress(raw[16:16 + compressed], max_output_size=size)
+    return msgspec.msgpack.decode(inner)["messages"]
+
+
+def gui_update(uuid: str, value: object) -> bytes:
+    """What the browser sends when the control ``uuid`` takes ``value`` (a button click: ``True``)."""
+    return msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}})

@@ -25,6 +25,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.cli import mgdata_here
 from tests.helpers.record import small_episodes, tree_digest, write_dataset
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
@@ -156,7 +157,9 @@ def test_the_same_frames_encode_to_the_same_bytes_in_every_process(source: Path,
 
 
 def _render(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([*MGDATA, "render", *args], capture_output=True, text=True, timeout=300)
+    """``mgdata render ARGS`` refused up front, through the real entry point in this process (the real
+    ``mgdata render`` process runs in the tests above)."""
+    return mgdata_here("render", *args)
 
 
 def test_bad_input_is_one_line(source: Path, tmp_path: Path) -> None:
