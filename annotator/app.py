@@ -33,12 +33,12 @@ from mgdata.annotator.objectscene import ObjectScene
 from mgdata.annotator.placements import recipe_placements
 from mgdata.annotator.store import GraspStore
 from mgdata.annotator.view import GHOST, View
-from mgdata.annotator.wire import guard, unguard
 from mgdata.annotator.worker import Done, LatestWorker
 from mgdata.grasps.check import GraspCheckConfig, check_grasp
 from mgdata.grasps.config import load_grasp_config
 from mgdata.grasps.db import Grasp, approach_hint
 from mgdata.motion import Pose
+from mgdata.viser_gate import guard, unguard
 
 AS_POSED = "as posed"
 """Guided-mode base orientation kept from free mode (so switching modes keeps the pose)."""

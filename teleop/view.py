@@ -98,18 +98,20 @@ class OperatorView:
     def __init__(self, session: TeleopSession, host: str = "127.0.0.1", port: int = 8080,
                  config: ViewConfig | None = None, scene_port: int | None = None) -> None:
         viser = require("viser")
+        from mgdata.viser_gate import guard
         config = config or load_teleop_config().view
         self.session = session
         self.image_every, self.scene_every = config.image_every, config.scene_every
         self.shadows, self.environment = config.shadows, config.environment
         self.server: Any = viser.ViserServer(host=host, port=port + 1 if scene_port is None else scene_port,
                                              label="mgdata teleop", verbose=False)  # the next free port
+        guard(self.server)  # what a browser sends the scene is checked before viser's handlers see it
         job = session.job
         try:
             self.page = OperatorPage(host, port, self.server.get_port(), session.command, _BUTTONS,
                                      f"{job.arm} · {job.family} task {job.task} → {job.out}")
         except BaseException:
-            self.server.stop()
+            self.close_scene()
             raise
         self.url = self.page.url
         scene = session.scene
@@ -256,4 +258,11 @@ class OperatorView:
             self._cond.notify()
         self._thread.join(timeout=5.0)
         self.page.close()
+        self.close_scene()
+
+    def close_scene(self) -> None:
+        """Stop the viser server and its gate."""
+        from mgdata.viser_gate import unguard
+
+        unguard(self.server)
         self.server.stop()

@@ -24,7 +24,7 @@ import viser
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
-from mgdata.annotator.wire import MAX_MESSAGE_BYTES, MAX_TEXT_CHARS
+from mgdata.viser_gate import MAX_MESSAGE_BYTES, MAX_TEXT_CHARS
 from tests.helpers.annotator import CAMERA, START, free_port, gui_update, viser_messages, wait_for
 
 MGDATA = str(Path(sys.executable).parent / "mgdata")

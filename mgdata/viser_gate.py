@@ -1,4 +1,5 @@
-"""What a browser may send the annotator's viser server, checked where it enters.
+"""What a browser may send one of mgdata's viser servers (the annotator's, the teleop operator's 3D scene),
+checked where it enters.
 
 viser decodes every websocket frame a client sends and hands it to its handlers as it comes: a frame that is
 not a viser message ends the connection with a traceback on the server's terminal, a wrong-typed GUI value
@@ -60,14 +61,14 @@ ACCEPTED = frozenset({
     "ScenePointerMessage", "TransformControlsUpdateMessage", "TransformControlsDragStartMessage",
     "TransformControlsDragEndMessage", "GetRenderResponseMessage", "LocalStorageGetItemResponseMessage",
 })
-"""The messages viser's browser client sends that the annotator takes (``client/src``: ``sendMessage``)."""
+"""The messages viser's browser client sends that mgdata's servers take (``client/src``: ``sendMessage``)."""
 REFUSED = {
-    "ShareUrlRequest": "sharing is off: the annotator serves only where --host says",
-    "ShareUrlDisconnect": "sharing is off: the annotator serves only where --host says",
-    "FileTransferStartUpload": "the annotator takes no file uploads",
-    "FileTransferPart": "the annotator takes no file uploads",
+    "ShareUrlRequest": "sharing is off: this server serves only where --host says",
+    "ShareUrlDisconnect": "sharing is off: this server serves only where --host says",
+    "FileTransferStartUpload": "this server takes no file uploads",
+    "FileTransferPart": "this server takes no file uploads",
 }
-"""Messages viser's client can send that the annotator refuses, and why."""
+"""Messages viser's client can send that mgdata's servers refuse, and why."""
 _EVENTS = ACCEPTED - {"ViewerCameraMessage", "GetRenderResponseMessage", "LocalStorageGetItemResponseMessage"}
 
 _Consumer = Callable[[ServerConnection, Callable[[Any], None], type], Awaitable[None]]
@@ -87,7 +88,7 @@ class Refused(ValueError):
 def guard(server: viser.ViserServer) -> None:
     """Check every message a client sends ``server`` from now on (see the module docstring)."""
     if getattr(_infra, "_message_consumer", None) not in (_VISER_CONSUMER, _consume):
-        raise RuntimeError("viser's message reader changed: mgdata.annotator.wire needs updating")
+        raise RuntimeError("viser's message reader changed: mgdata.viser_gate needs updating")
     _infra._message_consumer = _consume  # type: ignore[attr-defined]
     _GUARDED[server.get_port()] = server
 
