@@ -239,6 +239,8 @@ def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
            "--out", str(out)]
     if args.horizon:
         cmd += ["--horizon", str(args.horizon)]
+    if args.ensemble is not None:
+        cmd += ["--ensemble", str(args.ensemble)]
     run(cmd, env, out.parent / f"{out.name}.log")
     return [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines() if line.strip()]
 
@@ -272,6 +274,8 @@ def main() -> None:
     p.add_argument("--encoder-layers", type=int, default=2)
     p.add_argument("--chunk", type=int, default=20)
     p.add_argument("--chunk-steps", type=int, default=10, help="actions executed per query")
+    p.add_argument("--ensemble", type=float, default=None,
+                   help="temporal ensembling coefficient (mgdata eval --ensemble; queries every step)")
     p.add_argument("--lr", type=float, default=1e-4)
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--device", default="cpu", help="training device")

@@ -47,6 +47,10 @@ def register(app: typer.Typer) -> None:
             help="Observation keys: pi0, smolvla, groot or state (no camera rendered).")] = "pi0",
         chunk_steps: Annotated[int | None, typer.Option(
             help="Actions executed per query (default: recipes/eval.toml).")] = None,
+        ensemble: Annotated[float | None, typer.Option(
+            help="Temporal ensembling (ACT): query the policy at every step and execute the weighted mean "
+            "of every chunk's prediction for that step, the k-th oldest weighted exp(-ENSEMBLE*k) "
+            "(e.g. 0.01; replaces --chunk-steps).")] = None,
         timeout: Annotated[float | None, typer.Option(
             help="Seconds to wait for a reply before the rollout fails (default: recipes/eval.toml).")
         ] = None,
@@ -85,10 +89,12 @@ def register(app: typer.Typer) -> None:
             raise RecipeError(f"--timeout must be positive, got {wait_s}")
         if horizon is not None and horizon < 1:
             raise RecipeError(f"--horizon must be at least 1, got {horizon}")
+        if ensemble is not None and not (ensemble >= 0 and ensemble < float("inf")):
+            raise RecipeError(f"--ensemble must be a finite number >= 0, got {ensemble}")
         check_url(policy)
         chosen = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
         settings = LoopSettings(policy, convention, chosen, steps, wait_s, config.connect_timeout_s,
-                                out / "videos" if video else None, horizon)
+                                out / "videos" if video else None, horizon, ensemble)
         job = EvalJob(scenarios, settings, _ints(seeds, "--seeds"), out,
                       tuple(family) if family else None, tuple(condition) if condition else None, workers)
         first = plan(job)[0]  # bad scenario folders and filters fail before the server is asked

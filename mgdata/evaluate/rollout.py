@@ -2,7 +2,8 @@
 
 The loop (20 Hz, the dataset's rate): restore the scenario bit for bit; at step ``t`` with no actions left,
 render the cameras and query the policy with the observation (:mod:`mgdata.evaluate.conventions`); execute
-the first ``chunk_steps`` actions of the reply, each through
+the first ``chunk_steps`` actions of the reply (or, with temporal ensembling, query at every step and execute
+the ensembled action, :mod:`mgdata.evaluate.ensemble`), each through
 :class:`~mgdata.episode.runner.EpisodeRunner` (the executor's and teleop's step: controller → labeller →
 monitor → engagement → success column → gate). Every step is labelled and monitored; a violation does not
 end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
@@ -48,6 +49,7 @@ from mgdata.evaluate.conventions import (
     default_cameras,
     encode,
 )
+from mgdata.evaluate.ensemble import ChunkEnsemble
 from mgdata.evaluate.restore import restore_scenario
 from mgdata.record.episode import Frame
 from mgdata.record.recorder import Recorder
@@ -82,7 +84,9 @@ class RolloutJob:
 class LoopSettings:
     """How rollouts talk to the policy: URL, convention, cameras (``None``: the convention's default),
     actions executed per query, timeouts (s), where to write rollout videos (``None``: none), and a horizon
-    that replaces the scenarios' own (``None``: theirs; for smoke runs, the record says which)."""
+    that replaces the scenarios' own (``None``: theirs; for smoke runs, the record says which), and the
+    temporal-ensembling coefficient (``None``: none; otherwise the policy is queried at every step and
+    ``chunk_steps`` is ignored, :mod:`mgdata.evaluate.ensemble`)."""
 
     policy: str
     convention: str = "pi0"
@@ -92,6 +96,7 @@ class LoopSettings:
     connect_timeout_s: float = 10.0
     video_dir: Path | None = None
     horizon: int | None = None
+    ensemble: float | None = None
 
 
 class _Trace:
@@ -158,6 +163,7 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     end: str | None = None
     t_success: int | None = None
     chunk: list[np.ndarray] = []
+    ensemble = ChunkEnsemble(settings.ensemble) if settings.ensemble is not None else None
     try:
         runner.start()
         with PolicyClient(settings.policy, timeout=settings.timeout_s,
@@ -181,7 +187,12 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                     except PolicyTimeout:
                         end = "policy_timeout"
                         break
-                    chunk = list(decode_actions(reply)[: settings.chunk_steps])
+                    actions = decode_actions(reply)
+                    if ensemble is None:
+                        chunk = list(actions[: settings.chunk_steps])
+                    else:
+                        ensemble.add(runner.steps, actions)
+                        chunk = [ensemble.action(runner.steps).astype(np.float32)]
                 action = chunk.pop(0)
                 if not np.all(np.isfinite(action)):
                     end = "bad_action"

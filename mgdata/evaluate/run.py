@@ -87,6 +87,8 @@ def _settings_record(job: EvalJob, metadata: dict[str, Any]) -> dict[str, Any]:
     s = job.settings
     loop = {"convention": s.convention, "cameras": None if s.cameras is None else list(s.cameras),
             "chunk_steps": s.chunk_steps, "timeout_s": s.timeout_s, "horizon": s.horizon}
+    if s.ensemble is not None:  # absent when off: results written before ensembling existed still resume
+        loop["ensemble"] = s.ensemble
     return {"scenarios": str(job.scenarios), "loop": loop,
             "policy_metadata": json.loads(json.dumps(metadata, sort_keys=True, default=repr))}
 
