@@ -68,6 +68,7 @@ class CandidateConfig:
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
     rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more than this: pinch along it
+    rim_follow_max_deg: float = 45.0  # ... up to this (a plate's 76° rim would put the outer finger under it)
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 
 
@@ -145,7 +146,8 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
             sites.append((f"rim_{round(math.degrees(phi)):03d}",
                           radial * (float(geo["rim_radius"]) - wall / 2.0), radial))
         slope = float(geo.get("rim_slope", 0.0))
-        if "handle_center" not in geo and slope > math.radians(cfg.rim_follow_wall_deg):
+        if "handle_center" not in geo and math.radians(cfg.rim_follow_wall_deg) < slope <= math.radians(
+                cfg.rim_follow_max_deg):
             return _wall_pinches(sites, height, slope, cfg)
     elif "half_extents" in geo:
         hx, hy, hz = (float(v) for v in geo["half_extents"])
