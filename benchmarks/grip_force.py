@@ -46,12 +46,14 @@ def force_table() -> None:
             ctl.step()
         left, right = _pad_forces(m, d, scene.object_body("box"))
         width = d.qpos[robot.finger_qpos_adr(m)].sum() * 1000
-        print(f"| {command:.2f} | {d.ctrl[grip]:.2f} | {d.actuator_force[grip]:.1f} | {left:.1f} | {right:.1f} | "
+        print(f"| {command:.2f} | {d.ctrl[grip]:.2f} | {d.actuator_force[grip]:.1f} | {left:.1f} | "
+              f"{right:.1f} | "
               f"{width:.1f} |")
 
 
 def grip_table() -> None:
-    print("| object | grasp | rise (cm) | max tilt (°) | slip over 5 s hold (mm) | deepest pad contact (mm) | pads (N) |")
+    print("| object | grasp | rise (cm) | max tilt (°) | slip over 5 s hold (mm) | deepest pad contact (mm) "
+          "| pads (N) |")
     print("|---|---|---|---|---|---|---|")
     for p in GRIPS:
         model, grasp = p.values if hasattr(p, "values") else p

@@ -67,7 +67,7 @@ class CandidateConfig:
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
-    rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more than this: pinch along it
+    rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more: pinch along it
     rim_follow_max_deg: float = 45.0  # ... up to this (a plate's 76° rim would put the outer finger under it)
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 

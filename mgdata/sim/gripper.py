@@ -79,8 +79,8 @@ class GripperConfig:
             raise RecipeError(f"[gripper] peak_force = {self.peak_force!r}: expected a number > 0 (N)")
         dmin, dmax, width = self.finger_solimp
         if not (0 < dmin <= dmax < 1 and width > 0):
-            raise RecipeError(f"[gripper] finger_solimp = {list(self.finger_solimp)}: expected [dmin, dmax, width] "
-                              "with 0 < dmin <= dmax < 1 and width > 0")
+            raise RecipeError(f"[gripper] finger_solimp = {list(self.finger_solimp)}: expected "
+                              "[dmin, dmax, width] with 0 < dmin <= dmax < 1 and width > 0")
         if not self.finger_solmix > 0:
             raise RecipeError(f"[gripper] finger_solmix = {self.finger_solmix!r}: expected a number > 0")
 

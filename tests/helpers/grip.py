@@ -7,7 +7,8 @@ lifts 10 cm, carries 15 cm sideways and holds still for ``hold_s`` seconds. Meas
 
 * ``rise`` (m): the object's height gain, from ``data.xpos`` of its root body;
 * ``max_tilt_deg``: the largest angle between the object's +Z and world +Z during lift, carry and hold;
-* ``slip_hold`` (m): how far the object moved in the TCP frame (``data.site_xpos``/``site_xmat``) over the hold;
+* ``slip_hold`` (m): how far the object moved in the TCP frame (``data.site_xpos``/``site_xmat``) over the
+  hold;
 * ``max_penetration`` (m): the deepest finger–object contact (``-data.contact.dist``) over the attempt;
 * ``pad_force`` (N, per finger): the summed normal force of ``mujoco.mj_contactForce`` between each finger
   body and the object at the end;
@@ -68,7 +69,8 @@ def scripted_grip(model: str, grasp_id: str, *, close_steps: int = 20, hold_s: f
             pair = {m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]}
             if (c.geom1 in obj_geoms or c.geom2 in obj_geoms) and pair & set(fingers):
                 worst["pen"] = max(worst["pen"], -float(c.dist))
-        worst["ext"] = max(worst["ext"], float(np.abs(d.xfrc_applied).max()), float(np.abs(d.qfrc_applied).max()))
+        worst["ext"] = max(worst["ext"], float(np.abs(d.xfrc_applied).max()),
+                           float(np.abs(d.qfrc_applied).max()))
         if track_tilt[0]:
             worst["tilt"] = max(worst["tilt"], tilt())
 

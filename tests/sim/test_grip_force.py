@@ -30,7 +30,8 @@ hand's stroke, and contact forces of a held object fluctuate by ~1 N."""
 
 
 def _pad_forces(m: mujoco.MjModel, d: mujoco.MjData, obj_body: int) -> tuple[float, float]:
-    """Summed normal force (N) of the contacts between each finger body and the object, raw mj_contactForce."""
+    """Summed normal force (N) of the contacts between each finger body and the object (raw
+    mj_contactForce)."""
     force, out = np.zeros(6), [0.0, 0.0]
     fingers = [m.body(b).id for b in robot.FINGER_BODIES]
     for i, c in enumerate(d.contact[: d.ncon]):
@@ -67,10 +68,12 @@ def test_pad_force_follows_the_command_and_reaches_the_datasheet_70_N() -> None:
         # What the servo pushes on the split tendon (length = mean finger opening), half of it per finger.
         tendon = gain * d.ctrl[grip] + bias[0] + bias[1] * d.qpos[finger_q].mean()
         expected = -tendon / 2.0
-        assert left == pytest.approx(expected, rel=TOLERANCE) and right == pytest.approx(expected, rel=TOLERANCE), \
+        pads = (left, right)
+        assert pads == pytest.approx((expected, expected), rel=TOLERANCE), \
             f"command {command}: pads {left:.1f} / {right:.1f} N, servo {expected:.1f} N per finger"
         measured[command] = (left + right) / 2.0
-    assert measured[1.0] == pytest.approx(GRASP_FORCE, rel=TOLERANCE), f"closed: {measured[1.0]:.1f} N per finger"
+    closed = measured[1.0]
+    assert closed == pytest.approx(GRASP_FORCE, rel=TOLERANCE), f"closed: {closed:.1f} N per finger"
     assert measured[0.6] < measured[0.8] < measured[1.0]
     assert abs(d.actuator_force[grip]) <= m.actuator_forcerange[grip, 1]  # the force range does not clip it
 
@@ -101,7 +104,8 @@ def test_a_grasped_object_stays_put_through_lift_carry_and_a_5_s_hold(model: str
 
 def test_no_weld_equality_or_applied_force_holds_a_grasped_object() -> None:
     # The models: the only equality constraint couples the two finger joints; none names an object.
-    models = ["jar/hinged_03", "bowl/round_05", "plate/flat_00", "tray/flat_00", "board/chopping_00", "lid/tub_00",
+    models = ["jar/hinged_03", "bowl/round_05", "plate/flat_00", "tray/flat_00", "board/chopping_00",
+              "lid/tub_00",
               "container/tub_00", "cabinet/drawer_00", "mug/handled_00"]
     for name in models:
         scene = build_scene(task_with(ObjectPlacement("object", name, (0.6, 0.0, 0.0))))

@@ -220,8 +220,9 @@ def test_grasp_squeezes_about_22N_and_holds_the_lifted_box() -> None:
     # in the hand (the last steps): held.
     assert not any(held[:25]) and all(held[-5:])
     assert scene.object_pose("box")[0][2] > 0.12, "the box must be lifted with the hand (15 cm commanded)"
-    # Squeeze: the tendon servo pushes ~140 N, split equally over the two fingers: 70 N normal force per finger
-    # (the Franka Hand's continuous grasp force; tests/sim/test_grip_force.py measures it against the command).
+    # Squeeze: the tendon servo pushes ~140 N, split equally over the two fingers: 70 N normal force per
+    # finger (the Franka Hand's continuous grasp force; tests/sim/test_grip_force.py measures it against the
+    # command).
     m, d = scene.model, scene.data
     left = m.body("left_finger").id
     force = np.zeros(6)
