@@ -14,29 +14,15 @@ import numpy as np
 
 import mgdata  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 from mgdata.sim import robot
-from mgdata.sim.assets import get_model
-from mgdata.sim.controller import JointController
-from mgdata.sim.scene import build_scene
-from mgdata.sim.taskspec import ObjectPlacement
-from tests.helpers.grip import scripted_grip
-from tests.helpers.sim_tasks import ik, task_with
-from tests.sim.test_grip_force import DOWN, GRIPS, _pad_forces
+from tests.helpers.grip import carton_between_pads, pad_forces, scripted_grip
+from tests.sim.test_grip_force import GRIPS
 
 COMMANDS = (0.5, 0.55, 0.6, 0.7, 0.8, 0.9, 1.0)
 
 
 def force_table() -> None:
-    box = get_model("box/carton_03")
-    hz = box.geometry["half_extents"][2]
-    scene = build_scene(task_with(ObjectPlacement("box", box.name, (0.5, 0.0, 0.0))))
-    scene.reset()
+    scene, ctl, q = carton_between_pads()
     m, d = scene.model, scene.data
-    ctl = JointController(scene)
-    q = robot.HOME_Q
-    for z in np.linspace(2 * hz + 0.1, 2 * hz - 0.03, 15):
-        q = ik(q, (0.5, 0.0, z), DOWN)
-        ctl.apply(np.array([*q, 0.0]))
-        ctl.step()
     grip = m.actuator(robot.GRIPPER_ACTUATOR).id
     print("| command | actuator ctrl | tendon force (N) | left pad (N) | right pad (N) | width (mm) |")
     print("|---|---|---|---|---|---|")
@@ -44,7 +30,7 @@ def force_table() -> None:
         for _ in range(20):
             ctl.apply(np.array([*q, command]))
             ctl.step()
-        left, right = _pad_forces(m, d, scene.object_body("box"))
+        left, right = pad_forces(m, d, scene.object_body("box"))
         width = d.qpos[robot.finger_qpos_adr(m)].sum() * 1000
         print(f"| {command:.2f} | {d.ctrl[grip]:.2f} | {d.actuator_force[grip]:.1f} | {left:.1f} | "
               f"{right:.1f} | "

@@ -29,8 +29,44 @@ from mgdata.grasps.db import GraspDB
 from mgdata.motion import AllowedContacts, Attachment, MotionPlanner, Pose, load_motion_config
 from mgdata.paths import grasps_dir
 from mgdata.sim import robot
+from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
-from mgdata.sim.scene import build_scene
+from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import ObjectPlacement
+from tests.helpers.sim_tasks import ik, task_with
+
+DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+"""TCP rotation pointing straight down, fingers closing along world Y."""
+
+
+def pad_forces(m: mujoco.MjModel, d: mujoco.MjData, obj_body: int) -> tuple[float, float]:
+    """Summed normal force (N) of the contacts between each finger body and the object (raw
+    mj_contactForce)."""
+    force, out = np.zeros(6), [0.0, 0.0]
+    fingers = [m.body(b).id for b in robot.FINGER_BODIES]
+    for i, c in enumerate(d.contact[: d.ncon]):
+        bodies = (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))
+        for k, f in enumerate(fingers):
+            if f in bodies and obj_body in bodies:
+                mujoco.mj_contactForce(m, d, i, force)
+                out[k] += float(force[0])
+    return out[0], out[1]
+
+
+def carton_between_pads() -> tuple[Scene, JointController, np.ndarray]:
+    """A carton on the table with the open hand lowered around it (pointing down): ``(scene, controller,
+    arm configuration)``, ready to close."""
+    box = get_model("box/carton_03")
+    hz = box.geometry["half_extents"][2]
+    scene = build_scene(task_with(ObjectPlacement("box", box.name, (0.5, 0.0, 0.0))))
+    scene.reset()
+    ctl = JointController(scene)
+    q = robot.HOME_Q
+    for z in np.linspace(2 * hz + 0.1, 2 * hz - 0.03, 15):
+        q = ik(q, (0.5, 0.0, z), DOWN)
+        ctl.apply(np.array([*q, 0.0]))
+        ctl.step()
+    return scene, ctl, q
 
 
 @dataclass

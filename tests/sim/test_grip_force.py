@@ -12,15 +12,10 @@ import numpy as np
 import pytest
 
 from mgdata.sim import robot
-from mgdata.sim.assets import get_model
-from mgdata.sim.controller import JointController
 from mgdata.sim.scene import build_scene
 from mgdata.sim.taskspec import ObjectPlacement
-from tests.helpers.grip import scripted_grip, source_files
-from tests.helpers.sim_tasks import ik, task_with
-
-DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
-"""TCP rotation pointing straight down, fingers closing along world Y."""
+from tests.helpers.grip import carton_between_pads, pad_forces, scripted_grip, source_files
+from tests.helpers.sim_tasks import task_with
 
 GRASP_FORCE = 70.0
 """N per finger: the Franka Hand's continuous grasp force."""
@@ -29,32 +24,9 @@ TOLERANCE = 0.05
 hand's stroke, and contact forces of a held object fluctuate by ~1 N."""
 
 
-def _pad_forces(m: mujoco.MjModel, d: mujoco.MjData, obj_body: int) -> tuple[float, float]:
-    """Summed normal force (N) of the contacts between each finger body and the object (raw
-    mj_contactForce)."""
-    force, out = np.zeros(6), [0.0, 0.0]
-    fingers = [m.body(b).id for b in robot.FINGER_BODIES]
-    for i, c in enumerate(d.contact[: d.ncon]):
-        bodies = (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))
-        for k, f in enumerate(fingers):
-            if f in bodies and obj_body in bodies:
-                mujoco.mj_contactForce(m, d, i, force)
-                out[k] += float(force[0])
-    return out[0], out[1]
-
-
 def test_pad_force_follows_the_command_and_reaches_the_datasheet_70_N() -> None:
-    box = get_model("box/carton_03")
-    _, _, hz = box.geometry["half_extents"]
-    scene = build_scene(task_with(ObjectPlacement("box", box.name, (0.5, 0.0, 0.0))))
-    scene.reset()
+    scene, ctl, q = carton_between_pads()
     m, d = scene.model, scene.data
-    ctl = JointController(scene)
-    q = robot.HOME_Q
-    for z in np.linspace(2 * hz + 0.1, 2 * hz - 0.03, 15):
-        q = ik(q, (0.5, 0.0, z), DOWN)
-        ctl.apply(np.array([*q, 0.0]))
-        ctl.step()
     grip = m.actuator(robot.GRIPPER_ACTUATOR).id
     gain, bias = m.actuator_gainprm[grip, 0], m.actuator_biasprm[grip, :2]
     finger_q = robot.finger_qpos_adr(m)
@@ -64,7 +36,7 @@ def test_pad_force_follows_the_command_and_reaches_the_datasheet_70_N() -> None:
         for _ in range(20):
             ctl.apply(np.array([*q, command]))
             ctl.step()
-        left, right = _pad_forces(m, d, body)
+        left, right = pad_forces(m, d, body)
         # What the servo pushes on the split tendon (length = mean finger opening), half of it per finger.
         tendon = gain * d.ctrl[grip] + bias[0] + bias[1] * d.qpos[finger_q].mean()
         expected = -tendon / 2.0
