@@ -43,6 +43,10 @@ from mgdata.skeleton.poses import about_z, backed_off, held_object, raised
 from mgdata.skeleton.skeleton import Infeasible
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
 
+GRASP_CYCLE = Param("grasp_cycle", int, "reachable grasps the draws cycle through, most natural first "
+                    "(0: all, in the grasp DB's order)", 0, 1000, default=0)
+"""Optional: a recipe read without its skeleton's check (``load_recipe``) lacks it and gets the default."""
+
 PICK_AND_CARRY_KEYS = RecipeKeys(
     params=(
         Param("open_steps", int, "control steps to open the gripper", 1, 200),
@@ -58,8 +62,7 @@ PICK_AND_CARRY_KEYS = RecipeKeys(
               0.0, 0.05),
         Param("reach_standoff", float, "m pre-grasp standoff used to test which grasps are reachable",
               0.0, 0.3),
-        Param("grasp_cycle", int, "reachable grasps the draws cycle through, most natural first (0: all, "
-              "in the grasp DB's order)", 0, 1000, default=0),
+        GRASP_CYCLE,
         Param("carry_yaws_deg", tuple, "turns of the object about the vertical tried at the goal (deg)",
               -180.0, 180.0),
     ),
@@ -173,7 +176,7 @@ class PickAndCarry:
         """This attempt's grasp: round-robin (by draw) over the task's reachable valid grasps, or over the
         ``grasp_cycle`` most natural of them."""
         reachable = self._reachable(ctx)
-        cycle = int(ctx.param("grasp_cycle"))
+        cycle = int(ctx.params.get(GRASP_CYCLE.name, GRASP_CYCLE.default))
         seeds: dict[str, np.ndarray] = {}
         if cycle and reachable:
             seeds = dict(self._most_natural_first(ctx, reachable)[:cycle])

@@ -37,6 +37,16 @@ def _ctx(ex: Executor, draw: int, cycle: int) -> Context:
     return Context(task, ex.scene, ex.planner, var, ex.grasps, ex.scene.arm_q())
 
 
+def test_a_recipe_read_without_its_skeleton_check_gets_the_default(jar_executor: Executor) -> None:
+    """``load_recipe`` (tests, tools) fills no skeleton defaults: the pick runs as with grasp_cycle 0."""
+    ctx = _ctx(jar_executor, 1, 0)
+    ctx = dataclasses.replace(ctx, task=dataclasses.replace(
+        ctx.task, params={k: v for k, v in ctx.task.params.items() if k != "grasp_cycle"}))
+    carry = JarSkeleton.carry
+    assert carry.choose_grasp(ctx).id == carry.choose_grasp(_ctx(jar_executor, 1, 0)).id
+    assert not ctx.q_hints
+
+
 def test_cycle_zero_is_round_robin_over_every_reachable_grasp(jar_executor: Executor) -> None:
     carry = JarSkeleton.carry
     reachable = carry.reachable_grasps(_ctx(jar_executor, 0, 0))
