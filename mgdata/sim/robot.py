@@ -16,8 +16,10 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   tests/sim/test_grip_force.py). The force range is ``±2·peak_force`` (140 N per finger, the datasheet's
   peak). The bias velocity term (``damping`` 2800) sets the free finger speed to 0.05 m/s (0.1 m/s of
   opening width, libfranka's maximum); "open" (``open_ctrl = 2.8``) drives as hard the other way; the
-  control range is ``[-2.8, 2.8]``. The finger joints' limits get the pads' stiff ``solref`` so the open
-  force does not push a finger past its 40 mm stop;
+  control range is ``[-2.8, 2.8]``. The finger joints' limits get the pads' stiff ``solref``, so the 70 N
+  drive pushes a finger 0.6 mm past its stops (1.4 mm past 40 mm without). The two fingers do not collide
+  with each other: closed on nothing they stop at their joint limits, as the hand's mechanism does (finger against finger at 140 N and the pads' two-timestep
+  ``solref``, they chattered at up to 0.1 m/s and kicked what the closed fingertips touched with 100 N);
 * finger pads that hold what they squeeze (the grip contact model): MuJoCo's default contacts (``condim=3``)
   resist sliding but not spinning about the contact normal. A side grasp squeezes an object between two
   contacts whose normals lie on one line, so nothing resists the object pivoting about that line, and a jar
@@ -202,8 +204,9 @@ def _load_panda_spec(xml: Path, decimate_visuals: bool, gripper: GripperConfig,
                 geom.solref = list(gripper.finger_solref)
                 geom.solmix = gripper.finger_solmix
                 geom.solimp = [*gripper.finger_solimp, 0.5, 2.0]
-    for name in FINGER_JOINTS:  # stiff stops: the 70 N open force pushed a finger 1.4 mm past 40 mm
+    for name in FINGER_JOINTS:  # stiff stops: the 70 N drive pushed a finger 1.4 mm past 40 mm
         spec.joint(name).solref_limit = list(gripper.finger_solref)
+    spec.add_exclude(bodyname1="left_finger", bodyname2="right_finger")  # closed: the limits stop them
     for site in spec.body(ROOT_BODY).sites:
         site.group = 4
     if decimate_visuals:
