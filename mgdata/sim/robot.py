@@ -18,8 +18,9 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   opening width, libfranka's maximum); "open" (``open_ctrl = 2.8``) drives as hard the other way; the
   control range is ``[-2.8, 2.8]``. The finger joints' limits get the pads' stiff ``solref``, so the 70 N
   drive pushes a finger 0.6 mm past its stops (1.4 mm past 40 mm without). The two fingers do not collide
-  with each other: closed on nothing they stop at their joint limits, as the hand's mechanism does (finger against finger at 140 N and the pads' two-timestep
-  ``solref``, they chattered at up to 0.1 m/s and kicked what the closed fingertips touched with 100 N);
+  with each other: closed on nothing they stop at their joint limits, as the hand's mechanism does (finger
+  against finger at 140 N and the pads' two-timestep ``solref``, they chattered at up to 0.1 m/s and kicked
+  what the closed fingertips touched with 100 N);
 * finger pads that hold what they squeeze (the grip contact model): MuJoCo's default contacts (``condim=3``)
   resist sliding but not spinning about the contact normal. A side grasp squeezes an object between two
   contacts whose normals lie on one line, so nothing resists the object pivoting about that line, and a jar

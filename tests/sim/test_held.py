@@ -4,10 +4,10 @@ physics one timestep ahead (nothing from the predicate code).
 
 The episode: a top-down grasp closes on a carton standing on the table (the palm ends up pressing on its top),
 lifts it 10 cm and holds still; a candy is dropped onto the far end of the carton's top (it rides on it); then
-a downward force on the carton, servoed at every physics step to pull it at 5 cm/s relative to the hand,
-makes it slide through the fingers in jerks (stick-slip: the 70 N pads hold it until ~90 N, then let go at
-once, so a ramped force pulls it out within one control step). The palm presses on the carton's top throughout (the pads
-hold it there), and the palm is never support.
+a downward force on the carton, servoed at every physics step to pull it at 5 cm/s relative to the hand, makes
+it slide through the fingers in jerks (stick-slip: the 70 N pads hold it until ~90 N, then let go at once, so
+a ramped force pulls it out within one control step). The palm presses on the carton's top throughout (the
+pads hold it there), and the palm is never support.
 """
 
 from __future__ import annotations
