@@ -23,7 +23,7 @@ from mgdata.errors import RecipeError
 
 T = TypeVar("T")
 
-VECTOR_TYPES: dict[str, int] = {"tuple[float, float]": 2, "Vec3": 3}
+VECTOR_TYPES: dict[str, int] = {"tuple[float, float]": 2, "tuple[float, float, float]": 3, "Vec3": 3}
 """Annotations read as a list of numbers of this length (stored as a tuple of floats)."""
 
 _SCALARS = {"float": ((int, float), "a number"), "int": ((int,), "an integer"),

@@ -67,6 +67,8 @@ class CandidateConfig:
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
+    rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more: pinch along it
+    rim_follow_max_deg: float = 45.0  # ... up to this (a plate's 76° rim would put the outer finger under it)
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 
 
@@ -143,6 +145,10 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
             radial = np.array([math.cos(phi), math.sin(phi), 0.0])
             sites.append((f"rim_{round(math.degrees(phi)):03d}",
                           radial * (float(geo["rim_radius"]) - wall / 2.0), radial))
+        slope = float(geo.get("rim_slope", 0.0))
+        if "handle_center" not in geo and math.radians(cfg.rim_follow_wall_deg) < slope <= math.radians(
+                cfg.rim_follow_max_deg):
+            return _wall_pinches(sites, height, slope, cfg)
     elif "half_extents" in geo:
         hx, hy, hz = (float(v) for v in geo["half_extents"])
         height = 2.0 * hz
@@ -155,6 +161,22 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     out = []
     for name, xy, closing in sites:
         out += _two_rolls(name, xy + np.array([0.0, 0.0, z]), DOWN, closing)
+    return out
+
+
+def _wall_pinches(sites: list[tuple[str, np.ndarray, np.ndarray]], height: float, slope: float,
+                  cfg: CandidateConfig) -> list[Grasp]:
+    """Rim pinches tilted to follow a wall sloping ``slope`` (rad from vertical, the ``rim_slope`` of the
+    outer wall just below the rim) down and inwards: the pads
+    lie flat on both faces of the wall, so closing squeezes it without turning the vessel (a vertical pinch
+    on a sloping wall presses it upright: bowls hung 15–22° tilted), and the TCP is ``rim_depth`` down the
+    wall from the rim."""
+    out = []
+    for name, xy, radial in sites:
+        approach = -math.sin(slope) * radial - math.cos(slope) * np.array([0.0, 0.0, 1.0])
+        closing = math.cos(slope) * radial - math.sin(slope) * np.array([0.0, 0.0, 1.0])
+        pos = xy + np.array([0.0, 0.0, height]) + cfg.rim_depth * approach
+        out += _two_rolls(name, pos, approach, closing)
     return out
 
 

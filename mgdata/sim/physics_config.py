@@ -43,7 +43,7 @@ class Physics:
     integrator: str = "implicitfast"
     solver: str = "Newton"
     iterations: int = 100
-    impratio: float = 10.0
+    impratio: float = 30.0
     cone: str = "elliptic"
     liquid_solver: str = "CG"
     liquid_iterations: int = 100

@@ -9,12 +9,18 @@ points at another copy. Element names are kept exactly as in ``panda.xml``: join
 Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperConfig`, read from
 ``recipes/sim.toml`` ``[gripper]``):
 
-* gripper retuned for a ~20 N squeeze: the stock tendon servo pushes with ``50·ctrl − 100·length`` and gives
-  ~1 N on a 4 cm object, so objects slip. The "closed" command ``closed_ctrl = -0.4`` aims beyond closed:
-  the tendon pushes ≈ 22 N on a 4–7 cm object, i.e. a normal force of ≈ 11 N per finger (measured in
-  tests/sim/test_predicates.py), with the bias velocity term raised to −100 (``damping``) to damp the fingers
-  (probe-sim-stack.md §8). That damping alone would make opening take seconds, so "open" (``open_ctrl =
-  0.25``) likewise aims beyond fully open; the control range is ``[-1, 1]``;
+* the gripper at the Franka Hand's strength and speed: the stock tendon servo pushes with ``50·ctrl −
+  100·length`` (force range ±100 N) and gives ~1 N on a 4 cm object. The "closed" command ``closed_ctrl =
+  −2.8`` drives the ``split`` tendon with ≈ 140 N, which hands each finger joint half: each pad presses the
+  object with 70–72 N (the datasheet's 70 N continuous grasp force; measured with ``mj_contactForce``,
+  tests/sim/test_grip_force.py). The force range is ``±2·peak_force`` (140 N per finger, the datasheet's
+  peak). The bias velocity term (``damping`` 2800) sets the free finger speed to 0.05 m/s (0.1 m/s of
+  opening width, libfranka's maximum); "open" (``open_ctrl = 2.8``) drives as hard the other way; the
+  control range is ``[-2.8, 2.8]``. The finger joints' limits get the pads' stiff ``solref``, so the 70 N
+  drive pushes a finger 0.6 mm past its stops (1.4 mm past 40 mm without). The two fingers do not collide
+  with each other: closed on nothing they stop at their joint limits, as the hand's mechanism does (finger
+  against finger at 140 N and the pads' two-timestep ``solref``, they chattered at up to 0.1 m/s and kicked
+  what the closed fingertips touched with 100 N);
 * finger pads that hold what they squeeze (the grip contact model): MuJoCo's default contacts (``condim=3``)
   resist sliding but not spinning about the contact normal. A side grasp squeezes an object between two
   contacts whose normals lie on one line, so nothing resists the object pivoting about that line, and a jar
@@ -24,11 +30,12 @@ Changes made on load (:func:`load_panda_spec`; the numbers are :class:`GripperCo
   elliptic friction cone that stops a held jar creeping out of the fingers is a world option:
   ``mgdata.sim.physics_config.Physics``.) Every scene built on this model (generator, grasp check, teleop)
   gets it;
-* stiff finger pads: MuJoCo's default soft contact (``solref`` 0.02 s) let the 22 N squeeze sink the pads up
-  to 4 mm into a jar wall 3–4 mm thick, and a grasped jar crept down in the fingers. ``finger_solref``
-  (0.005 s, critically damped) with ``finger_solmix`` (100: the pads' ``solref`` dominates the mix with any
-  object's) keeps the penetration under 0.4 mm and the slip under 0.4 mm over a 5 s hold (measured on five
-  jar tasks, docs/sim.md; tests/test_jar.py holds it to < 1 mm and ≤ 3 mm);
+* stiff finger pads: MuJoCo's default soft contact (``solref`` 0.02 s) let even a 22 N squeeze sink the pads
+  up to 4 mm into a jar wall 3–4 mm thick, and a grasped jar crept down in the fingers. ``finger_solref``
+  (0.004 s = two timesteps, critically damped), ``finger_solimp`` (0.95 → 0.99 over 1 mm) and
+  ``finger_solmix`` (100: the pads' settings dominate the mix with any object's) keep the 70 N grasp's
+  penetration under 0.7 mm and its slip under 3 mm over a 5 s hold on every graspable category (docs/sim.md;
+  tests/sim/test_grip_force.py, tests/test_jar.py);
 * visual meshes replaced by cached 10 % decimations (``meshcache``) in geom group ``NEAR_LOD_GROUP``, with
   optional coarser copies in the hidden group ``FAR_LOD_GROUP`` that far cameras draw instead
   (``far_lod``; docs/render.md); collision meshes untouched;
@@ -186,6 +193,7 @@ def _load_panda_spec(xml: Path, decimate_visuals: bool, gripper: GripperConfig,
                 raise RobotModelError(f"Panda MJCF {xml} has no {kind} named {name!r}")
     grip = spec.actuator(GRIPPER_ACTUATOR)
     grip.ctrlrange = list(gripper.ctrl_range)
+    grip.forcerange = [-2.0 * gripper.peak_force, 2.0 * gripper.peak_force]  # split tendon: half per finger
     bias = list(grip.biasprm)
     bias[2] = -gripper.damping
     grip.biasprm = bias
@@ -196,6 +204,10 @@ def _load_panda_spec(xml: Path, decimate_visuals: bool, gripper: GripperConfig,
                 geom.friction = [geom.friction[0], gripper.finger_torsional_friction, geom.friction[2]]
                 geom.solref = list(gripper.finger_solref)
                 geom.solmix = gripper.finger_solmix
+                geom.solimp = [*gripper.finger_solimp, 0.5, 2.0]
+    for name in FINGER_JOINTS:  # stiff stops: the 70 N drive pushed a finger 1.4 mm past 40 mm
+        spec.joint(name).solref_limit = list(gripper.finger_solref)
+    spec.add_exclude(bodyname1="left_finger", bodyname2="right_finger")  # closed: the limits stop them
     for site in spec.body(ROOT_BODY).sites:
         site.group = 4
     if decimate_visuals:

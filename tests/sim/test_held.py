@@ -4,7 +4,10 @@ physics one timestep ahead (nothing from the predicate code).
 
 The episode: a top-down grasp closes on a carton standing on the table (the palm ends up pressing on its top),
 lifts it 10 cm and holds still; a candy is dropped onto the far end of the carton's top (it rides on it); then
-a downward force on the carton, ramped up by 1 N per step until it slips, makes it slide through the fingers.
+a downward force on the carton, servoed at every physics step to pull it at 5 cm/s relative to the hand, makes
+it slide through the fingers in jerks (stick-slip: the 70 N pads hold it until ~90 N, then let go at once, so
+a ramped force pulls it out within one control step). The palm presses on the carton's top throughout (the
+pads hold it there), and the palm is never support.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from mgdata.spec import Proposition, SafetySpec
 from tests.helpers.sim_tasks import ik, task_with
 
 HELD_GAP_TOL = 0.0005  # m: ``held``'s documented default; closer to the table top than this is support
+SLIDE_SPEED = 0.05  # m/s the carton is pulled through the fingers
 DOWN = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 
 
@@ -106,24 +110,48 @@ def episode() -> list[Step]:
     x = 0.5 + 0.025  # grip the +X end, leave the −X end of the top free for the candy
     plan = [(z, 0.0) for z in np.linspace(top + 0.1, grasp, 15)] + [(grasp, 1.0)] * 10
     plan += [(z, 1.0) for z in np.linspace(grasp, grasp + 0.1, 20)] + [(grasp + 0.1, 1.0)] * 55
-    q, steps, slid_from, force = robot.HOME_Q, [], None, 0.0
-    for t, (z, grip) in enumerate(plan):
+    hand, tcp = m.body(robot.HAND_BODY).id, m.site("TCP").id
+    drag = {"on": False, "integral": 0.0, "from": np.zeros(3)}
+
+    def pull(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Every physics step: pull the carton down out of the fingers at SLIDE_SPEED relative to the hand
+        (a PI servo on the applied force), until it has slid 4 cm."""
+        if d is not scene.data:  # the callback is global: leave other models (the IK's) alone
+            return
+        if not drag["on"]:
+            d.xfrc_applied[body] = 0.0
+            return
+        if np.linalg.norm(hand_frame(m, d)[0] - drag["from"]) > 0.04:
+            drag["on"] = False
+            d.xfrc_applied[body] = 0.0
+            return
+        v_box, v_hand = np.zeros(6), np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, body, v_box, 0)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, hand, v_hand, 0)
+        error = SLIDE_SPEED - (v_hand[5] - v_box[5])  # downward speed of the carton in the hand
+        drag["integral"] += 4000.0 * error * m.opt.timestep
+        force = np.array([0.0, 0.0, -max(0.0, drag["integral"] + 20.0 * error)])
+        d.xfrc_applied[body, :3] = force  # applied between the pads, so that it does not turn the carton
+        d.xfrc_applied[body, 3:] = np.cross(d.site_xpos[tcp] - d.xipos[body], force)
+
+    q, targets, steps = robot.HOME_Q, [], []
+    for z, _ in plan:  # solved before the callback is set: it is global
         q = ik(q, (x, 0.0, z), DOWN)
-        ctl.apply(np.array([*q, grip]))
-        if t == 50:  # drop the candy 5 mm above the carton's −X end
-            adr, dof = m.jnt_qposadr[m.joint("candy/free").id], m.jnt_dofadr[m.joint("candy/free").id]
-            d.qpos[adr : adr + 3] = [0.5 - 0.03, 0.0, d.xpos[body][2] + top + 0.005]
-            d.qvel[dof : dof + 6] = 0.0
-        if t == 60:
-            slid_from, force = hand_frame(m, d)[0], 10.0
-        slid = 0.0 if slid_from is None else float(np.linalg.norm(hand_frame(m, d)[0] - slid_from))
-        if slid > 0.04:
-            force = 0.0  # slid 4 cm: let it go (or stick)
-        elif force and slid < 0.001:
-            force += 1.0  # ramp up until it slips, then keep the force
-        d.xfrc_applied[body, 2] = -force
-        ctl.step()
-        steps.append(measure(scene, bool(lab.as_dict()["held"])))
+        targets.append(q)
+    mujoco.set_mjcb_control(pull)
+    try:
+        for t, ((_, grip), q) in enumerate(zip(plan, targets, strict=True)):
+            ctl.apply(np.array([*q, grip]))
+            if t == 50:  # drop the candy 5 mm above the carton's −X end
+                adr, dof = m.jnt_qposadr[m.joint("candy/free").id], m.jnt_dofadr[m.joint("candy/free").id]
+                d.qpos[adr : adr + 3] = [0.5 - 0.03, 0.0, d.xpos[body][2] + top + 0.005]
+                d.qvel[dof : dof + 6] = 0.0
+            if t == 60:
+                drag.update(on=True, integral=0.0, **{"from": hand_frame(m, d)[0]})
+            ctl.step()
+            steps.append(measure(scene, bool(lab.as_dict()["held"])))
+    finally:
+        mujoco.set_mjcb_control(None)
     return steps
 
 
@@ -142,12 +170,14 @@ def test_lifted_and_at_rest_in_a_closed_grasp_is_held(episode: list[Step]) -> No
 
 def test_an_object_riding_on_the_held_one_is_not_support(episode: list[Step]) -> None:
     riding = [s for s in episode if s.candy_nz and max(s.candy_nz) < -0.9 and all(s.fingers)
-              and not s.others and s.speed < 0.005 and s.spin < 0.05]
+              and set(s.others) <= {"hand"} and s.speed < 0.005 and s.spin < 0.05]
     assert len(riding) >= 5, "the candy must rest on the held carton, pressing it down"
     assert all(s.held for s in riding)
 
 
 def test_sliding_in_the_fingers_is_not_held(episode: list[Step]) -> None:
     sliding = [s for s in episode if all(s.fingers) and not s.support and s.speed > 0.03]
-    assert len(sliding) >= 2, "the carton must slide through the closed fingers for a few steps"
+    # the 70 N pads stick and slip: a pull servoed at 5 cm/s moves the carton in jerks, and the control-step
+    # samples catch it mid-slide at least once
+    assert len(sliding) >= 1, "the carton must slide through the closed fingers"
     assert not any(s.held for s in sliding)

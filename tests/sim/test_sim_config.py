@@ -61,7 +61,10 @@ def test_every_scene_has_the_grip_contact_model(jar_scene: Scene) -> None:
     ("[physics]\ncontrol_dt = 0.051\n", r"\[physics\] control_dt = 0.051: expected a whole number of"),
     ('[physics]\nsolver = "newton"\n', r"\[physics\] solver = 'newton': expected one of \['CG', 'Newton'"),
     ("[gripper]\nfinger_condim = 5\n", r"\[gripper\] finger_condim = 5: expected 3, 4 or 6"),
-    ("[gripper]\nclosed_ctrl = -1.5\n", r"\[gripper\] closed_ctrl = -1.5: expected a value in ctrl_range"),
+    ("[gripper]\nclosed_ctrl = -3.5\n", r"\[gripper\] closed_ctrl = -3.5: expected a value in ctrl_range"),
+    ("[gripper]\nfinger_solimp = [0.99, 0.9, 0.001]\n",
+     r"\[gripper\] finger_solimp = \[0.99, 0.9, 0.001\]: expected"),
+    ("[gripper]\npeak_force = 0.0\n", r"\[gripper\] peak_force = 0.0: expected a number > 0"),
     ("[cameras]\nleft = [0.45, 0.0, 1.5]\n", r"\[cameras\] left = .*straight above or below look_at"),
     ("[cameras]\nimage_size = 4\n", r"\[cameras\] image_size = 4: expected an integer >= 8"),
     ("physics = 3\n", r"\[physics\] must be a table"),
@@ -84,7 +87,7 @@ def test_settings_take_effect_in_the_scene() -> None:
     sim = sim_config_from_dict({
         "physics": {"timestep": 0.001, "cone": "pyramidal", "iterations": 50},
         "gripper": {"finger_condim": 3, "finger_torsional_friction": 0.01, "damping": 80,
-                    "closed_ctrl": -0.5},
+                    "closed_ctrl": -0.5, "peak_force": 100.0, "finger_solimp": [0.9, 0.95, 0.002]},
         "cameras": {"fovy": 45, "front": [1.5, 0.1, 0.8]},
     })
     scene = build_scene(jar_task(), sim=sim)
@@ -95,6 +98,8 @@ def test_settings_take_effect_in_the_scene() -> None:
     assert (m.geom_condim[fingers] == 3).all() and np.allclose(m.geom_friction[fingers, 1], 0.01)
     grip = m.actuator(robot.GRIPPER_ACTUATOR).id
     assert m.actuator_biasprm[grip, 2] == -80.0
+    assert np.allclose(m.actuator_forcerange[grip], [-200.0, 200.0])
+    assert np.allclose(m.geom_solimp[fingers, :3], [0.9, 0.95, 0.002])
     assert m.cam_fovy[m.camera("front").id] == 45.0 and m.cam_fovy[m.camera("wrist").id] == 75.0
     assert np.allclose(m.cam_pos[m.camera("front").id], [1.5, 0.1, 0.8])
     ctl = JointController(scene)

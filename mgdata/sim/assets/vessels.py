@@ -27,8 +27,10 @@ def _vessel(name: str, category: str, seed: int, rng: np.random.Generator, outer
     parts: tuple[Geom, ...] = hulls
     rim_r, height = float(outer[-1, 0]), float(outer[-1, 1])
     size_x = 2 * max(outer[:, 0])
+    top = outer[-1] - outer[-2]  # the outer wall just below the rim, from vertical (rad; > 0 flares outwards)
     geometry: dict[str, object] = {"bottom_radius": float(outer[0, 0]), "rim_radius": rim_r, "height": height,
-                                   "wall": wall, "bottom": bottom}
+                                   "wall": wall, "bottom": bottom,
+                                   "rim_slope": float(np.arctan2(top[0], top[1]))}
     if handle is not None:
         cx, cz, hr = handle
         parts += arc_capsules((cx, cz), hr, 0.005, -np.pi / 2, np.pi / 2, 4, "handle_")
