@@ -27,7 +27,8 @@ def _reference(queries: list[tuple[int, np.ndarray]], step: int, coeff: float) -
 @settings(max_examples=60, deadline=None)
 @given(coeff=st.floats(0.0, 2.0), lengths=st.lists(st.integers(1, 6), min_size=1, max_size=12),
        gaps=st.lists(st.integers(1, 3), min_size=12, max_size=12), seed=st.integers(0, 2**16))
-def test_the_ensemble_is_acts_weighted_mean(coeff: float, lengths: list[int], gaps: list[int], seed: int) -> None:
+def test_the_ensemble_is_acts_weighted_mean(coeff: float, lengths: list[int], gaps: list[int],
+                                            seed: int) -> None:
     rng = np.random.default_rng(seed)
     ensemble, queries, step = ChunkEnsemble(coeff), [], 0
     for length, gap in zip(lengths, gaps, strict=False):
