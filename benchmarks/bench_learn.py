@@ -239,7 +239,7 @@ def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
            "--out", str(out)]
     if args.horizon:
         cmd += ["--horizon", str(args.horizon)]
-    if args.ensemble is not None:
+    if args.ensemble >= 0:
         cmd += ["--ensemble", str(args.ensemble)]
     run(cmd, env, out.parent / f"{out.name}.log")
     return [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines() if line.strip()]
@@ -274,8 +274,10 @@ def main() -> None:
     p.add_argument("--encoder-layers", type=int, default=2)
     p.add_argument("--chunk", type=int, default=20)
     p.add_argument("--chunk-steps", type=int, default=10, help="actions executed per query")
-    p.add_argument("--ensemble", type=float, default=None,
-                   help="temporal ensembling coefficient (mgdata eval --ensemble; queries every step)")
+    p.add_argument("--ensemble", type=float, default=0.01,
+                   help="temporal ensembling coefficient (mgdata eval --ensemble; queries every step; ACT's "
+                   "0.01 by default: without it the policy's chunk switches jitter the held jar past the "
+                   "goal's at-rest limit); a negative value turns it off (--chunk-steps)")
     p.add_argument("--lr", type=float, default=1e-4)
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--device", default="cpu", help="training device")
