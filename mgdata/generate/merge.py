@@ -8,8 +8,9 @@ So the merge re-stages every shard episode (frames, video packets copied without
 histograms, scene) and appends them sorted by (draw, task) with the ordinary writer, then records the
 summed attempt count and the joined draw cursor. The shards must share the generator identity (family,
 seed, inputs digest), schema and video settings, and no (task, draw) may appear twice. Labelled negatives
-(``<shard>_failed``) are merged into ``<out>_failed`` the same way when every shard has them. The result is
-built in ``<out>.partial`` and renamed when complete.
+(``<shard>_failed``) are merged into ``<out>_failed`` the same way when every shard has them. Both are
+built in ``.partial`` folders and renamed when complete, negatives first and ``out`` last, so ``out``
+existing means the merge finished; a re-run after an interrupted merge replaces a leftover ``<out>_failed``.
 
 Example::
 
@@ -56,10 +57,13 @@ def _merge_shards(shards: list[Path], out: Path) -> int:
     joined = RunState(states[0].family, states[0].seed, states[0].inputs_digest,
                       next_draw={t: d for s in states for t, d in s.next_draw.items()},
                       attempts=sum(s.attempts for s in states))
-    n = _merge(readers, out, joined)
+    part = _build(readers, out, joined)
     if with_failed:
-        _merge([DatasetReader(f) for f in failed], failed_path(out), None)
-    return n
+        failed_part = _build([DatasetReader(f) for f in failed], failed_path(out), None)
+        shutil.rmtree(failed_path(out), ignore_errors=True)  # left by a merge stopped before its last rename
+        os.replace(failed_part, failed_path(out))
+    os.replace(part, out)
+    return sum(r.num_episodes for r in readers)
 
 
 def _state(reader: DatasetReader) -> RunState:
@@ -92,7 +96,8 @@ def _check_same(readers: list[DatasetReader], states: list[RunState]) -> None:
                                "--shard i/N")
 
 
-def _merge(readers: list[DatasetReader], out: Path, state: RunState | None) -> int:
+def _build(readers: list[DatasetReader], out: Path, state: RunState | None) -> Path:
+    """The merged dataset of ``readers`` in ``<out>.partial``; returns that folder."""
     first = readers[0]
     order = sorted(((rec.meta.draw_index, rec.meta.task_id, k, rec.index)
                     for k, r in enumerate(readers) for rec in r.records()))
@@ -107,5 +112,4 @@ def _merge(readers: list[DatasetReader], out: Path, state: RunState | None) -> i
             writer.record_attempts(sum(c or 0 for c in counts))
     if state is not None:
         state.save(part / STATE_FILE)
-    os.replace(part, out)
-    return len(order)
+    return part

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -31,7 +32,7 @@ def test_shard_needs_a_quota_and_a_valid_index(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_merged_shards_equal_one_run(tmp_path: Path) -> None:
+def test_merged_shards_equal_one_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     recipe = low_yield_recipe(tmp_path)
     common = {"family": "jar", "n": 1, "tasks": (0, 1, 2), "per_task": 2, "recipe": recipe,
               "keep_failed": True}
@@ -48,3 +49,22 @@ def test_merged_shards_equal_one_run(tmp_path: Path) -> None:
     assert dataset_files(failed_path(merged)) == dataset_files(failed_path(whole))
     with pytest.raises(DatasetError, match=r"overlap|shares tasks"):
         merge_shards([shards[0], shards[0]], tmp_path / "twice")
+
+    # Stopped between its two renames (negatives in place, the dataset not yet): the re-run completes it.
+    again = tmp_path / "again"
+    real_replace = os.replace
+
+    def stop_before_out(src: os.PathLike, dst: os.PathLike) -> None:
+        if Path(dst) == again:
+            raise KeyboardInterrupt
+        real_replace(src, dst)
+
+    monkeypatch.setattr("mgdata.generate.merge.os.replace", stop_before_out)
+    with pytest.raises(KeyboardInterrupt):
+        merge_shards(shards, again)
+    assert failed_path(again).exists() and not again.exists()
+    monkeypatch.undo()
+    assert merge_shards(shards, again) == 6
+    assert dataset_files(again) == dataset_files(whole)
+    assert dataset_files(failed_path(again)) == dataset_files(failed_path(whole))
+    assert not list(tmp_path.glob("*.partial"))
