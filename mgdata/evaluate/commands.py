@@ -73,6 +73,7 @@ def register(app: typer.Typer) -> None:
         from mgdata.evaluate.client import check_health, check_url
         from mgdata.evaluate.config import load_eval_config
         from mgdata.evaluate.conventions import CONVENTIONS, check_cameras, default_cameras
+        from mgdata.evaluate.ensemble import ChunkEnsemble
         from mgdata.evaluate.rollout import LoopSettings
         from mgdata.evaluate.run import EvalJob, plan, run_eval
 
@@ -89,8 +90,11 @@ def register(app: typer.Typer) -> None:
             raise RecipeError(f"--timeout must be positive, got {wait_s}")
         if horizon is not None and horizon < 1:
             raise RecipeError(f"--horizon must be at least 1, got {horizon}")
-        if ensemble is not None and not (ensemble >= 0 and ensemble < float("inf")):
-            raise RecipeError(f"--ensemble must be a finite number >= 0, got {ensemble}")
+        if ensemble is not None:
+            try:
+                ChunkEnsemble(ensemble)  # its own check is the one rule
+            except ValueError as e:
+                raise RecipeError(f"--ensemble: {e}") from None
         check_url(policy)
         chosen = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
         settings = LoopSettings(policy, convention, chosen, steps, wait_s, config.connect_timeout_s,

@@ -15,6 +15,7 @@ from mgdata.evaluate.ensemble import ChunkEnsemble
 from mgdata.evaluate.policies import ReplayPolicy
 from mgdata.evaluate.rollout import LoopSettings, RolloutJob, rollout
 from mgdata.record.reader import DatasetReader
+from tests.helpers.cli import mgdata_here
 
 
 def _reference(queries: list[tuple[int, np.ndarray]], step: int, coeff: float) -> np.ndarray:
@@ -42,10 +43,14 @@ def test_the_ensemble_is_acts_weighted_mean(coeff: float, lengths: list[int], ga
         ensemble.action(step + 100)
 
 
-def test_a_bad_coefficient_is_refused() -> None:
+def test_a_bad_coefficient_is_refused(tmp_path: Path) -> None:
     for coeff in (-0.1, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="coefficient"):
             ChunkEnsemble(coeff)
+        proc = mgdata_here("eval", "--policy", "ws://127.0.0.1:9", "--scenarios", tmp_path / "none",
+                           "--ensemble", str(coeff), "--out", tmp_path / "out")
+        assert proc.returncode == 2 and proc.stderr.startswith("error: --ensemble:"), proc.stderr
+        assert "Traceback" not in proc.stderr and not (tmp_path / "out").exists()
 
 
 def test_an_ensembled_replay_reproduces_the_demo_bit_for_bit(scenario_set: Path, demo: Path,
