@@ -155,3 +155,38 @@ def test_pouring_the_liquid_out_is_a_spill_at_the_step_it_leaves(grasps: GraspDB
     t_v = result.t_violation["liquid_not_spilled"]
     assert t_v is not None and abs(t_v - spilled) <= 1, (t_v, spilled)  # the predicate's own cavity margin
     assert len(frames) - 1 == t_v
+
+
+# --- the side grasp holds the wall, not the rim -------------------------------------------------------------
+class _PadHeights(JointController):
+    """After every control step, from raw MuJoCo: how far (m) below the container's top (its own frame, its
+    geoms' box) the highest finger-container contact is (``None`` while no finger touches it)."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        m = scene.model
+        self.container = m.body("container").id
+        self.fingers = {m.body(n).id for n in ("left_finger", "right_finger")}
+        self.below_top: list[float | None] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        _, hi = rawdata.local_box(m, d, self.container)
+        rot = d.xmat[self.container].reshape(3, 3)
+        heights = [float((c.pos - d.xpos[self.container]) @ rot[:, 2]) for c in d.contact[:d.ncon]
+                   if {int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])} & self.fingers
+                   and self.container in (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))]
+        self.below_top.append(float(hi[2]) - max(heights) if heights else None)
+
+
+def test_side_grasp_pads_press_the_cup_wall_below_its_rim(grasps: GraspDB) -> None:
+    """Task 13's tumbler is 91 mm tall: the drawn grasp height (+26-32 mm over the DB's 55 mm side grasp)
+    put the pads' upper half over its rim, which the 70 N squeeze turned out of the grip in the lift.
+    ``rim_clearance`` caps the raise: no finger touches the cup within 6 mm of its top."""
+    recipe = load_family_recipe("clutter_liquid")
+    task = base_task(recipe, 13)
+    result, _, _, probe = probed_attempt(task, recipe, grasps, ClutterSkeleton(), _PadHeights)
+    touching = [h for h in probe.below_top if h is not None]
+    assert len(touching) > 20, result.reason  # the fingers closed on the cup and held it a while
+    assert min(touching) > 0.006, (min(touching), result.stage, result.reason)

@@ -47,6 +47,11 @@ GRASP_CYCLE = Param("grasp_cycle", int, "reachable grasps the draws cycle throug
                     "(0: all, in the grasp DB's order)", 0, 1000, default=0)
 """Optional: a recipe read without its skeleton's check (``load_recipe``) lacks it and gets the default."""
 
+RIM_CLEARANCE = Param("rim_clearance", float, "m the raised grasp keeps the TCP below the picked object's "
+                      "top (caps the draw's grasp_height, so side-grasping pads press the wall, not the rim "
+                      "edge; 0: no cap)", 0.0, 0.1, default=0.0)
+"""Optional, like :data:`GRASP_CYCLE`: recipes without it keep their grasps and their datasets' bytes."""
+
 PICK_AND_CARRY_KEYS = RecipeKeys(
     params=(
         Param("open_steps", int, "control steps to open the gripper", 1, 200),
@@ -63,6 +68,7 @@ PICK_AND_CARRY_KEYS = RecipeKeys(
         Param("reach_standoff", float, "m pre-grasp standoff used to test which grasps are reachable",
               0.0, 0.3),
         GRASP_CYCLE,
+        RIM_CLEARANCE,
         Param("carry_yaws_deg", tuple, "turns of the object about the vertical tried at the goal (deg)",
               -180.0, 180.0),
     ),
@@ -214,12 +220,11 @@ class PickAndCarry:
 
     def reachable_grasps(self, ctx: Context, allowed: AllowedContacts = NO_CONTACTS) -> tuple[Grasp, ...]:
         """Valid grasps whose pre-grasp (``reach_standoff`` back) and grasp poses (raised by the draw's
-        ``grasp_height``; the gate uses the midpoint) have IK solutions with
+        ``grasp_height`` as :meth:`grasp_raise` caps it; the gate uses the midpoint) have IK solutions with
         ``grasp_margin`` from the joint limits and the arm ``grasp_clearance`` clear of everything but the
         object, its riders and the pairs in ``allowed`` (a wrist that grazes the table in the plan hits it
         once the servos sag). From the state in ``ctx`` with a task-derived seed, so every worker agrees."""
         pose_obj = ctx.object_pose(self.obj).matrix()
-        pose_obj[:3, 3] += pose_obj[:3, 2] * ctx.variation["grasp_height"]  # this draw's grasp height
         margin = float(ctx.param("grasp_margin"))
         planner = ctx.planner
         touch = self._riders_touch(ctx) + AllowedContacts(((ROOT_BODY, self.obj),)) + allowed
@@ -230,7 +235,9 @@ class PickAndCarry:
         for grasp in ctx.grasps.get(self.obj, ()):
             if self.grasp_filter and grasp.approach not in self.grasp_filter:
                 continue
-            pose = Pose.from_matrix(pose_obj @ grasp.matrix())
+            raised = pose_obj.copy()
+            raised[:3, 3] += raised[:3, 2] * self.grasp_raise(ctx, grasp)  # this draw's grasp height
+            pose = Pose.from_matrix(raised @ grasp.matrix())
             pre = backed_off(pose, standoff)
             try:
                 q_pre = planner.ik(pre, ctx.q_cmd, rng)
@@ -271,8 +278,18 @@ class PickAndCarry:
     def _grasp_pose(self, ctx: Context) -> Pose:
         grasp: Grasp = ctx.memo[self.name("grasp")]
         local = grasp.matrix()
-        local[2, 3] += ctx.variation["grasp_height"]
+        local[2, 3] += self.grasp_raise(ctx, grasp)
         return Pose.from_matrix(ctx.object_pose(self.obj).matrix() @ local)
+
+    def grasp_raise(self, ctx: Context, grasp: Grasp) -> float:
+        """How far (m) ``grasp`` is raised along the object's vertical axis: the draw's ``grasp_height``,
+        capped so the TCP stays ``rim_clearance`` below the object's top when the recipe sets one."""
+        raise_by = float(ctx.variation["grasp_height"])
+        clearance = float(ctx.params.get(RIM_CLEARANCE.name, RIM_CLEARANCE.default))
+        if clearance > 0.0:
+            top = ctx.scene.objects[self.obj].size[2]
+            raise_by = min(raise_by, top - clearance - float(grasp.pos[2]))
+        return raise_by
 
     # -- lifting and the goal --------------------------------------------------------------------------------
     def _lift(self, ctx: Context) -> float:
