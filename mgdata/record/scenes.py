@@ -37,17 +37,26 @@ def scene_id(task_id: int, sha256: str) -> str:
     return f"task_{task_id:06d}_{sha256[:16]}"
 
 
-class Scenes:
-    """The scenes table in memory (rows in storage order); immutable: :meth:`with_scene` returns a new one.
+_CODEC = pa.Codec("zstd", compression_level=1)
+"""How a scene's ``data`` is held in memory between commits (the table is rewritten whole at each new scene,
+so a writer holds every scene of its dataset: raw, 26 clutter_liquid scenes took 183 MB; packed, ~41 MB)."""
 
-    Attributes:
-        rows: one dict per scene with the columns above.
-    """
+
+class Scenes:
+    """The scenes table in memory (rows in storage order, ``data`` zstd-packed); immutable:
+    :meth:`with_scene` returns a new one."""
 
     def __init__(self, rows: list[dict], where: str = "meta/scenes.parquet") -> None:
-        self.rows = rows
+        self._rows = [_pack(r) for r in rows]
         self.where = where
-        self._by_id = {r["scene"]: r for r in rows}
+        self._by_id = {r["scene"]: r for r in self._rows}
+
+    @classmethod
+    def _packed(cls, rows: list[dict], where: str) -> Scenes:
+        scenes = cls([], where)
+        scenes._rows = rows
+        scenes._by_id = {r["scene"]: r for r in rows}
+        return scenes
 
     @classmethod
     def read(cls, path: Path) -> Scenes:
@@ -60,7 +69,9 @@ class Scenes:
             raise DatasetError(f"{path}: unreadable parquet ({err})") from err
         if table.schema.names != SCHEMA.names:
             raise DatasetError(f"{path}: columns {table.schema.names}, expected {SCHEMA.names}")
-        return cls(table.to_pylist(), str(path))
+        meta = table.drop_columns(["data"]).to_pylist()
+        data = table.column("data")
+        return cls._packed([_pack({**m, "data": data[i].as_buffer()}) for i, m in enumerate(meta)], str(path))
 
     def __contains__(self, scene: str) -> bool:
         return scene in self._by_id
@@ -74,7 +85,7 @@ class Scenes:
         row = self._by_id.get(scene)
         if row is None:
             raise DatasetError(f"{self.where}: no scene {scene!r}")
-        data = np.frombuffer(row["data"], np.uint8)
+        data = np.frombuffer(_unpack(row), np.uint8)
         if row["base"] is not None:
             if row["base"] not in self._by_id or self._by_id[row["base"]]["base"] is not None:
                 raise DatasetError(f"{self.where}: scene {scene!r} is coded against {row['base']!r}, which "
@@ -96,13 +107,26 @@ class Scenes:
         sid = scene_id(task_id, digest)
         if sid in self:
             return sid, self
-        base = next((r["scene"] for r in self.rows if r["base"] is None and r["size"] == len(mjb)), None)
+        base = next((r["scene"] for r in self._rows if r["base"] is None and r["size"] == len(mjb)), None)
         data = mjb if base is None else \
             (np.frombuffer(mjb, np.uint8) ^ np.frombuffer(self.mjb(base), np.uint8)).tobytes()
         row = {"scene": sid, "task_id": task_id, "sha256": digest, "size": len(mjb), "base": base,
                "data": data}
-        return sid, Scenes([*self.rows, row], self.where)
+        return sid, Scenes._packed([*self._rows, _pack(row)], self.where)
 
     def write(self, path: Path) -> None:
-        pq.write_table(pa.Table.from_pylist(self.rows, schema=SCHEMA), path, compression="zstd",
-                       use_dictionary=False)
+        columns = {f.name: pa.array([r[f.name] for r in self._rows], f.type) for f in SCHEMA
+                   if f.name != "data"}
+        columns["data"] = pa.array((_unpack(r) for r in self._rows), SCHEMA.field("data").type,
+                                   size=len(self._rows))
+        pq.write_table(pa.table(columns, schema=SCHEMA), path, compression="zstd", use_dictionary=False)
+
+
+def _pack(row: dict) -> dict:
+    """``row`` with its ``data`` compressed (and its length kept, to decompress it)."""
+    data = row["data"]
+    return {**row, "data": _CODEC.compress(data, asbytes=True), "data_size": len(data)}
+
+
+def _unpack(row: dict) -> bytes:
+    return _CODEC.decompress(row["data"], decompressed_size=row["data_size"], asbytes=True)
