@@ -115,6 +115,7 @@ class DatasetReader:
             raise DatasetError(f"{self.root / layout.EPISODES_DIR}: episode indices {found}, info.json says "
                                f"{total} episodes")
         self._data_cache: tuple[str, pa.Table] | None = None
+        self._scenes: Scenes | None = None
 
     # --- dataset level ------------------------------------------------------------------------------------
 
@@ -191,8 +192,11 @@ class DatasetReader:
         )
 
     def scenes(self) -> Scenes:
-        """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states)."""
-        return Scenes.read(self.files.path(layout.SCENES_PATH))
+        """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states), read
+        once: the per-episode readers (render, merge, export) asked for the whole table at every episode."""
+        if self._scenes is None:
+            self._scenes = Scenes.read(self.files.path(layout.SCENES_PATH))
+        return self._scenes
 
     def scene_mjb(self, i: int) -> bytes:
         """The compiled MuJoCo scene (MJB bytes) episode ``i`` ran in
