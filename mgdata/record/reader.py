@@ -193,7 +193,7 @@ class DatasetReader:
 
     def scenes(self) -> Scenes:
         """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states), read
-        once: the per-episode readers (render, merge, export) asked for the whole table at every episode."""
+        once and kept: render, merge and the environment view ask for it at every episode."""
         if self._scenes is None:
             self._scenes = Scenes.read(self.files.path(layout.SCENES_PATH))
         return self._scenes
