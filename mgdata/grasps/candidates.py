@@ -11,7 +11,7 @@
   trays): a pinch of the wall from above. The gripper points straight down over the middle of the wall,
   fingers closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a
   handle) or across the wall (rectangular vessels, the middle of each side), the TCP ``rim_depth`` below the
-  rim but high enough that the inner fingertip clears the vessel's floor by ``tip_clearance``.
+  rim but high enough that the inner fingertip clears the vessel's floor by ``floor_clearance``.
 * **handle** (mugs, teacups: ``handle_center``, ``handle_radius``): at points of the handle's arc
   ``handle_elevations_deg`` above its outermost point (0°: horizontal, from the handle's side), pointing at
   the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
@@ -64,11 +64,12 @@ class CandidateConfig:
     min_side_height: float = 0.055  # m above the object's base: lower side grasps put the wrist on the table
     side_top_clearance: float = 0.015  # m kept between a side grasp and the object's top (rim, lid)
     tip_clearance: float = 0.002  # m kept between a fingertip and the surface below it
+    floor_clearance: float = 0.006  # m kept between a rim pinch's inner fingertip and the vessel's floor
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
     rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more: pinch along it
-    rim_follow_max_deg: float = 45.0  # ... up to this (a plate's 76° rim would put the outer finger under it)
+    rim_follow_max_deg: float = 45.0  # ... up to this; a steeper one (a plate's 71-78° rim) gets no rim pinch
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
 
 
@@ -146,8 +147,9 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
             sites.append((f"rim_{round(math.degrees(phi)):03d}",
                           radial * (float(geo["rim_radius"]) - wall / 2.0), radial))
         slope = float(geo.get("rim_slope", 0.0))
-        if "handle_center" not in geo and math.radians(cfg.rim_follow_wall_deg) < slope <= math.radians(
-                cfg.rim_follow_max_deg):
+        if slope > math.radians(cfg.rim_follow_max_deg):
+            return []  # a plate's rim: a vertical pinch slides off it or lifts one side (docs/grasps.md)
+        if "handle_center" not in geo and slope > math.radians(cfg.rim_follow_wall_deg):
             return _wall_pinches(sites, height, slope, cfg)
     elif "half_extents" in geo:
         hx, hy, hz = (float(v) for v in geo["half_extents"])
@@ -157,7 +159,7 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
                                           ("rim_nx", (-1.0, 0.0, 0.0), hx), ("rim_ny", (0.0, -1.0, 0.0), hy))]
     else:
         return []
-    z = max(height - cfg.rim_depth, bottom + FINGERTIP_REACH + cfg.tip_clearance)
+    z = max(height - cfg.rim_depth, bottom + FINGERTIP_REACH + cfg.floor_clearance)
     out = []
     for name, xy, closing in sites:
         out += _two_rolls(name, xy + np.array([0.0, 0.0, z]), DOWN, closing)

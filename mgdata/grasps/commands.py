@@ -138,7 +138,8 @@ def register(app: typer.Typer) -> None:
             ids = {g.id for g in kept}
             checked = {_pose_key(g): g for g in old if g.source == "generated"}
             new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
-            if not kept and not new:
+            if not kept and not new:  # its generated grasps of an earlier generator go too
+                db = db.without_object(key)
                 typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
                 continue
             db = db.with_object(key, kept + new)

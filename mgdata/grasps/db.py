@@ -135,6 +135,10 @@ class GraspDB:
         objects[key] = grasps
         return GraspDB(objects)
 
+    def without_object(self, key: str) -> GraspDB:
+        """A copy without ``key``'s grasps."""
+        return GraspDB({k: v for k, v in self.objects.items() if k != key})
+
     @classmethod
     def load(cls, paths: Iterable[Path]) -> GraspDB:
         """Load and validate several category files; a model may appear in only one of them."""
@@ -157,7 +161,8 @@ class GraspDB:
 
     def write_dir(self, directory: Path, categories: Iterable[str] | None = None) -> list[Path]:
         """Write one file per category atomically (only ``categories``, if given: a run that changed one
-        category leaves the others' files alone); returns the paths written."""
+        category leaves the others' files alone; a given category left without objects loses its file);
+        returns the paths written."""
         directory = Path(directory)
         wanted = None if categories is None else set(categories)
         by_category: dict[str, dict[str, tuple[Grasp, ...]]] = {}
@@ -170,6 +175,8 @@ class GraspDB:
             path = directory / f"{category}.json"
             write_file(path, objects)
             written.append(path)
+        for category in (wanted or set()) - set(by_category):
+            (directory / f"{category}.json").unlink(missing_ok=True)
         return written
 
 

@@ -66,7 +66,7 @@ def test_side_grasps_straddle_the_object_with_room_to_spare(model: str) -> None:
         assert free > 0.003, g.id  # both fingertips start outside it
 
 
-@pytest.mark.parametrize("model", ["bowl/round_05", "plate/flat_03", "mug/handled_02", "teacup/flared_01",
+@pytest.mark.parametrize("model", ["bowl/round_05", "mug/handled_02", "teacup/flared_01",
                                    "container/tub_04", "tray/flat_02"])
 def test_rim_pinches_straddle_the_wall(model: str) -> None:
     obj = get_model(model)
@@ -85,6 +85,24 @@ def test_rim_pinches_straddle_the_wall(model: str) -> None:
         assert tips[2] > 0.0  # the fingertips stay above the table
 
 
+@pytest.mark.parametrize("model", ["tray/flat_00", "tray/flat_06"])
+def test_rim_pinch_keeps_the_inner_fingertip_off_a_shallow_floor(model: str) -> None:
+    # A tray's walls are 2-3 cm tall: rim_depth would put the inner fingertip on its floor, and the arm rests
+    # ~5 mm below its command, so a fingertip 2 mm up pressed the floor and friction stopped the fingers
+    # short of the wall (0 of 16 trays lifted). The floor's top, from the raw geom.
+    cfg = CandidateConfig()
+    rims = [g for g in candidates(get_model(model), cfg) if g.id.startswith("rim_")]
+    assert len(rims) == 8
+    for g in rims:
+        scene = _scene(model, g)
+        m, d = scene.model, scene.data
+        floor = m.geom("object/bottom").id
+        floor_top = d.geom_xpos[floor][2] + m.geom_size[floor][2]
+        world = g.world_matrix(m, d, "object")
+        tip = world[:3, 3] + world[:3, 2] * FINGERTIP_REACH
+        assert tip[2] - floor_top == pytest.approx(cfg.floor_clearance, abs=1e-6), g.id
+
+
 def test_handle_and_knob_and_top_grasps_close_on_something_narrow() -> None:
     for model, prefix in (("mug/handled_05", "handle_"), ("teacup/flared_04", "handle_"),
                           ("lid/tub_02", "knob_"), ("box/carton_01", "top_"), ("sponge/block_03", "top_")):
@@ -97,8 +115,10 @@ def test_handle_and_knob_and_top_grasps_close_on_something_narrow() -> None:
             assert 0.005 < width < MAX_OPENING - 0.01 and free > 0.003, (model, g.id, width, free)
 
 
-def test_board_lying_flat_gets_no_candidates() -> None:
-    assert all(not candidates(get_model(n), CandidateConfig()) for n in model_names("board"))
+def test_boards_and_plates_lying_flat_get_no_candidates() -> None:
+    # a plate's rim slopes 71-78° from vertical: a vertical pinch slides off it or lifts one side
+    for category in ("board", "plate"):
+        assert all(not candidates(get_model(n), CandidateConfig()) for n in model_names(category)), category
 
 
 def test_drawer_handle_grasp_is_in_the_drawer_frame_and_moves_with_it() -> None:

@@ -59,6 +59,7 @@ GRIPS = [  # one graspable object per category, by a grasp the check found valid
     pytest.param("mug/handled_00", "rim_045_r0", marks=pytest.mark.slow),
     pytest.param("lid/tub_00", "knob_x_r0", marks=pytest.mark.slow),
     pytest.param("container/bottle_00", "side_000_r1", marks=pytest.mark.slow),
+    pytest.param("tray/flat_00", "rim_px_r0", marks=pytest.mark.slow),  # 24 x 16 cm, held by one side
 ]
 # Bowls: the pinch along a sloping wall holds them level (docs/sim.md) but is not in the shipped grasp DB
 # (dusty's pour needs the vertical pinch, docs/grasps.md), whose vertical pinch tilts a bowl 18°.
