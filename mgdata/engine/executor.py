@@ -60,6 +60,7 @@ from mgdata.skeleton.segment import MotionSegment
 from mgdata.skeleton.skeleton import FamilySkeleton, skeleton_for
 from mgdata.skeleton.variation import draw_variation
 from mgdata.tasks.base import draw_task
+from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import Recipe
 
 _MOTION_STAGES = {"start_invalid": "plan_fail"}
@@ -159,7 +160,18 @@ def dataset_schema(recipe: Recipe) -> DatasetSchema:
     return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
                          constraints=tuple(c.id for c in recipe.spec.constraints),
-                         physics_state_size=state_size(build_scene(draw_task(recipe, 0)).model))
+                         physics_state_size=state_size(build_scene(_first_layout(recipe)).model))
+
+
+def _first_layout(recipe: Recipe) -> TaskSpec:
+    """Task 0's first draw that meets the layout rules (its scene gives the family's state width)."""
+    for draw in range(recipe.tasks.max_draws):
+        try:
+            return draw_task(recipe, 0, draw)
+        except LayoutRejected as why:
+            last = why
+    raise RecipeError(f"{recipe.path}: no draw of task 0 meets the layout rules in {recipe.tasks.max_draws} "
+                      f"draws (the last: {last})")
 
 
 class Executor:

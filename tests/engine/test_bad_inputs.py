@@ -163,6 +163,14 @@ def test_wrong_types_in_the_recipe(tmp_path: Path) -> None:
               "carry_speed = 'fast': expected a number in [0.01, 1]")
 
 
+def test_layout_no_draw_can_meet_is_one_line(tmp_path: Path) -> None:
+    # the jar's region is 1 mm wide and the table's far edge: no draw places it
+    recipe = small_recipe(tmp_path / "r", ("region = { x = [0.45, 0.58], y = [-0.15, 0.15] }",
+                                           "region = { x = [1.30, 1.301], y = [0.0, 0.001] }"))
+    one_error(generate(tmp_path / "out", recipe, here=True), "no draw of task 0 meets the layout rules")
+    assert not (tmp_path / "out").exists()
+
+
 def test_spec_formula_beyond_the_limits_is_refused_by_generate(tmp_path: Path) -> None:
     spec = tmp_path / "spec.toml"
     deep = "(" * 200 + "jar_upright" + ")" * 200
