@@ -13,9 +13,10 @@ wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a f
    ``max_stroke_force``, light enough that the tray does not slide along) and ``touch_up_strokes`` over the
    remaining speck nearest the sponge. Lift off. Dust left ends the attempt (``target_fail``).
 3. **Put the sponge back** where it was picked up, release, retreat.
-4. **Grasp the source** (Layer 2's pick): a DB rim pinch whose open fingertips keep ``food_clearance`` from
-   the food (:meth:`CarrierPick.clear_of_food`), on the bowl's far side (:meth:`CarrierPick.far_side`),
-   round-robin over the reachable ones; lift clear of everything.
+4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
+   pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
+   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on the bowl's far side
+   (:meth:`CarrierPick.far_side`), round-robin over the reachable ones; lift clear of everything.
 5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the bowl (joint-space, ``carry_speed``)
    to the pour stance, then tilt it in ``pour_steps`` turns about a horizontal axis through the TCP, its far
    side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg`` past where the food slides out; the
@@ -63,8 +64,16 @@ class CarrierPick(PickAndCarry):
     food: str = "food"
 
     def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
+        vertical = tuple(g for g in ctx.grasps.get(self.obj, ()) if self.vertical(ctx, g))
+        ctx = replace(ctx, grasps={**ctx.grasps, self.obj: vertical})
         return tuple(g for g in super().reachable_grasps(ctx)
                      if self.clear_of_food(ctx, g) and self.far_side(ctx, g))
+
+    def vertical(self, ctx: Context, grasp: Grasp) -> bool:
+        """Does the grasp approach within ``carrier_tilt_max_deg`` of straight down (in the carrier's
+        frame)? The pour is tuned for the vertical pinch, not for a bowl's pinch along its sloping wall."""
+        down = -float(grasp.matrix()[2, 2])
+        return down >= math.cos(math.radians(ctx.param("carrier_tilt_max_deg")))
 
     def far_side(self, ctx: Context, grasp: Grasp) -> bool:
         """Is the grasp on the carrier's far side (its radius within ``pour_side_deg`` of the direction away
@@ -115,6 +124,8 @@ class DustySkeleton(FamilySkeleton):
               0.0, 0.2),
         Param("pour_side_deg", float, "a carrier grasp's radius is at most this far from the "
               "direction away from the robot", 0.0, 180.0),
+        Param("carrier_tilt_max_deg", float, "deg a carrier grasp's approach leans from straight down at "
+              "most", 0.0, 90.0),
         Param("sponge_grasp_raise", float, "m the sponge's DB grasp is raised along its vertical", 0.0, 0.05),
         Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved", 0.0, 0.2),
     )) + WIPE_KEYS + RecipeKeys(params=(

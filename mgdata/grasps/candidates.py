@@ -7,11 +7,13 @@
   ``grasp_height`` (or mid-height) raised to ``min_side_height`` (the wrist clears the table) but kept
   ``side_top_clearance`` below the top; the TCP sits on the axis unless the palm would touch the object, in
   which case it backs off. Two rolls per direction (fingers swapped), which reach differently.
-* **rim** (open vessels with a ``wall`` too wide for a side grasp: bowls, plates, mugs, teacups, tubs,
-  trays): a pinch of the wall from above. The gripper points straight down over the middle of the wall,
-  fingers closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a
-  handle) or across the wall (rectangular vessels, the middle of each side), the TCP ``rim_depth`` below the
-  rim but high enough that the inner fingertip clears the vessel's floor by ``floor_clearance``.
+* **rim** (open vessels with a ``wall`` too wide for a side grasp: bowls, mugs, teacups, tubs, trays): a
+  pinch of the wall from above. The gripper points straight down over the middle of the wall, fingers
+  closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a handle)
+  or across the wall (rectangular vessels, the middle of each side), the TCP ``rim_depth`` below the rim but
+  high enough that the inner fingertip clears the vessel's floor by ``floor_clearance``. A handleless round
+  vessel whose wall slopes (bowls) also gets ``wall_*`` pinches along the wall (they hold it level); a rim
+  steeper than ``rim_follow_max_deg`` (plates) gets none.
 * **handle** (mugs, teacups: ``handle_center``, ``handle_radius``): at points of the handle's arc
   ``handle_elevations_deg`` above its outermost point (0°: horizontal, from the handle's side), pointing at
   the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
@@ -149,11 +151,9 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
         slope = float(geo.get("rim_slope", 0.0))
         if slope > math.radians(cfg.rim_follow_max_deg):
             return []  # a plate's rim: a vertical pinch slides off it or lifts one side (docs/grasps.md)
-        if "handle_center" not in geo and slope > math.radians(cfg.rim_follow_wall_deg):
-            return _wall_pinches(sites, height, slope, cfg)
     elif "half_extents" in geo:
         hx, hy, hz = (float(v) for v in geo["half_extents"])
-        height = 2.0 * hz
+        height, slope = 2.0 * hz, 0.0
         sites = [(name, np.array(axis) * (half - wall / 2.0), np.array(axis))
                  for name, axis, half in (("rim_px", (1.0, 0.0, 0.0), hx), ("rim_py", (0.0, 1.0, 0.0), hy),
                                           ("rim_nx", (-1.0, 0.0, 0.0), hx), ("rim_ny", (0.0, -1.0, 0.0), hy))]
@@ -163,6 +163,8 @@ def rim_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     out = []
     for name, xy, closing in sites:
         out += _two_rolls(name, xy + np.array([0.0, 0.0, z]), DOWN, closing)
+    if "handle_center" not in geo and slope > math.radians(cfg.rim_follow_wall_deg):
+        out += _wall_pinches(sites, height, slope, cfg)  # a bowl: also along its sloping wall
     return out
 
 
@@ -178,7 +180,7 @@ def _wall_pinches(sites: list[tuple[str, np.ndarray, np.ndarray]], height: float
         approach = -math.sin(slope) * radial - math.cos(slope) * np.array([0.0, 0.0, 1.0])
         closing = math.cos(slope) * radial - math.sin(slope) * np.array([0.0, 0.0, 1.0])
         pos = xy + np.array([0.0, 0.0, height]) + cfg.rim_depth * approach
-        out += _two_rolls(name, pos, approach, closing)
+        out += _two_rolls(name.replace("rim_", "wall_", 1), pos, approach, closing)
     return out
 
 

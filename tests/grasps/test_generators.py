@@ -85,6 +85,21 @@ def test_rim_pinches_straddle_the_wall(model: str) -> None:
         assert tips[2] > 0.0  # the fingertips stay above the table
 
 
+def test_a_bowl_gets_vertical_pinches_and_pinches_along_its_sloping_wall() -> None:
+    obj = get_model("bowl/round_05")
+    found = candidates(obj, CandidateConfig())
+    vertical = [g for g in found if g.id.startswith("rim_")]
+    along = [g for g in found if g.id.startswith("wall_")]
+    assert len(vertical) == len(along) == 16
+    slope = obj.geometry["rim_slope"]
+    for g in along:
+        approach = g.matrix()[:3, 2]
+        # leans inwards by the wall's slope: its horizontal part points at the bowl's axis
+        assert np.degrees(np.arccos(-approach[2])) == pytest.approx(np.degrees(slope), abs=1e-6)
+        assert approach[:2] @ np.asarray(g.pos[:2]) < 0
+    assert all(g.matrix()[2, 2] == pytest.approx(-1.0) for g in vertical)
+
+
 @pytest.mark.parametrize("model", ["tray/flat_00", "tray/flat_06"])
 def test_rim_pinch_keeps_the_inner_fingertip_off_a_shallow_floor(model: str) -> None:
     # A tray's walls are 2-3 cm tall: rim_depth would put the inner fingertip on its floor, and the arm rests

@@ -60,9 +60,8 @@ GRIPS = [  # one graspable object per category, by a grasp the check found valid
     pytest.param("lid/tub_00", "knob_x_r0", marks=pytest.mark.slow),
     pytest.param("container/bottle_00", "side_000_r1", marks=pytest.mark.slow),
     pytest.param("tray/flat_00", "rim_px_r0", marks=pytest.mark.slow),  # 24 x 16 cm, held by one side
+    pytest.param("bowl/round_05", "wall_000_r0", marks=pytest.mark.slow),  # along its wall (vertical: 18°)
 ]
-# Bowls: the pinch along a sloping wall holds them level (docs/sim.md) but is not in the shipped grasp DB
-# (dusty's pour needs the vertical pinch, docs/grasps.md), whose vertical pinch tilts a bowl 18°.
 
 
 @pytest.mark.parametrize(("model", "grasp"), GRIPS)
