@@ -25,6 +25,9 @@ from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp, GraspDB
 from mgdata.paths import grasps_dir
 
+WELL_COVERED = 3
+"""Valid grasps an object needs to count as well covered in ``grasps report`` (a family draws among them)."""
+
 Dir = Annotated[Path | None, typer.Option("--dir", help="Grasp DB folder (default: the project's grasps/).")]
 Models = Annotated[list[str] | None, typer.Argument(help="Models or globs, e.g. 'jar/*' (default: all).")]
 All = Annotated[bool, typer.Option("--all", help="Re-check grasps that already have a result.")]
@@ -88,8 +91,8 @@ def register(app: typer.Typer) -> None:
                    help="Categories (default: every category of the asset library but particle sets, "
                         "i.e. dust and liquid).")] = None,
                directory: Dir = None) -> None:
-        """Coverage per category: objects with a valid grasp / models in the library; grasps valid /
-        checked / total.
+        """Coverage per category: objects with a valid grasp / models in the library; objects with at least
+        three valid grasps; grasps valid / checked / total.
 
         Example: mgdata grasps report cup bowl cabinet
         """
@@ -102,15 +105,15 @@ def register(app: typer.Typer) -> None:
         unknown = [c for c in wanted if c not in known]
         if unknown:
             raise GraspDBError(f"unknown object category {unknown[0]!r}; known: {', '.join(known)}")
-        table = Table("category", "objects covered", "grasps valid", "checked", "total")
-        sums = [0, 0, 0, 0, 0]
+        table = Table("category", "objects covered", f"with ≥ {WELL_COVERED} valid", "grasps valid",
+                      "checked", "total")
+        sums = [0, 0, 0, 0, 0, 0]
         for category in wanted:
             names = model_names(category)
-            grasps = {n: db.objects.get(n, ()) for n in names}
-            row = [sum(any(g.status == "valid" for g in gs) for gs in grasps.values()), len(names),
-                   sum(g.status == "valid" for gs in grasps.values() for g in gs),
-                   sum(g.status != "unvalidated" for gs in grasps.values() for g in gs),
-                   sum(len(gs) for gs in grasps.values())]
+            valid = [sum(g.status == "valid" for g in db.objects.get(n, ())) for n in names]
+            grasps = [g for n in names for g in db.objects.get(n, ())]
+            row = [sum(v > 0 for v in valid), len(names), sum(v >= WELL_COVERED for v in valid), sum(valid),
+                   sum(g.status != "unvalidated" for g in grasps), len(grasps)]
             sums = [a + b for a, b in zip(sums, row, strict=True)]
             table.add_row(category, f"{row[0]} / {row[1]}", *map(str, row[2:]))
         table.add_row("all", f"{sums[0]} / {sums[1]}", *map(str, sums[2:]))

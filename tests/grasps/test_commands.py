@@ -85,9 +85,15 @@ def test_report_counts_coverage_per_category(tmp_path: Path) -> None:
     rows = {line.split("│")[1].strip(): [c.strip() for c in line.split("│")[2:-1]]
             for line in proc.stdout.splitlines() if line.startswith("│")}
     n_box, n_bowl = len(model_names("box")), len(model_names("bowl"))
-    assert rows["box"] == [f"1 / {n_box}", "1", "3", "4"]
-    assert rows["bowl"] == [f"0 / {n_bowl}", "0", "0", "0"]
-    assert rows["all"] == [f"1 / {n_box + n_bowl}", "1", "3", "4"]
+    assert rows["box"] == [f"1 / {n_box}", "0", "1", "3", "4"]
+    assert rows["bowl"] == [f"0 / {n_bowl}", "0", "0", "0", "0"]
+    assert rows["all"] == [f"1 / {n_box + n_bowl}", "0", "1", "3", "4"]
+    # three valid grasps make an object well covered
+    db.with_object("box/carton_01", [grasp(g, "valid") for g in "xyz"]).write_dir(tmp_path)
+    out = _run("report", "box", "--dir", str(tmp_path)).stdout
+    rows = {line.split("│")[1].strip(): [c.strip() for c in line.split("│")[2:-1]]
+            for line in out.splitlines() if line.startswith("│")}
+    assert rows["box"] == [f"2 / {n_box}", "1", "4", "5", "5"]
     bad = _run("report", "bowls", "--dir", str(tmp_path))
     assert bad.returncode == 2 and "unknown object category 'bowls'" in bad.stderr
     assert "Traceback" not in bad.stderr
