@@ -44,6 +44,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parent.parent
 MGDATA = [sys.executable, "-c", "import sys; from mgdata.cli import main; sys.argv[0] = 'mgdata'; main()"]
 
@@ -116,11 +118,20 @@ def task0_models(family: str) -> dict[str, str]:
     return {o.name: o.model for o in base_task(load_recipe(family), 0).objects}
 
 
+def carry_grasp_step(grip: np.ndarray) -> int | None:
+    """The step at which a demo's gripper command closes on what it carries: its first close, or, if it
+    starts closed (the jar's lid is pushed shut with closed fingers), its first close after opening."""
+    opened = np.flatnonzero(np.diff(grip) < 0)
+    closes = np.flatnonzero(np.diff(grip) > 0)
+    if grip[0] > 0.5:
+        closes = closes[closes > opened[0]] if opened.size else closes[:0]
+    return int(closes[0]) + 1 if closes.size else None
+
+
 def demo_spread(data: Path) -> dict:
     """How alike the demos of a layout are: distinct grasps per layout, the arm configuration at the carry's
-    grasp (the gripper's first close after its first open) as std per joint across all demos and as the
-    largest spread within one layout, and how many demos swing joint 1 past ±1.5 rad."""
-    import numpy as np
+    grasp (:func:`carry_grasp_step`) as std per joint across all demos and as the largest spread within one
+    layout, and how many demos swing joint 1 past ±1.5 rad."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -134,12 +145,10 @@ def demo_spread(data: Path) -> dict:
     tasks, grasps = meta.column("mgdata/task_id").to_pylist(), meta.column("mgdata/grasp_id").to_pylist()
     at_grasp, twisted = {}, 0
     for e in range(meta.num_rows):
-        q, g = state[ep == e], grip[ep == e]
-        opened = np.flatnonzero(np.diff(g) < 0)
-        closes = [k for k in np.flatnonzero(np.diff(g) > 0) if opened.size and k > opened[0]]
+        q, close = state[ep == e], carry_grasp_step(grip[ep == e])
         twisted += bool(np.abs(q[:, 0]).max() > 1.5)
-        if closes:
-            at_grasp[e] = q[closes[0] + 1]
+        if close is not None:
+            at_grasp[e] = q[close]
     by_task: dict[int, list[int]] = {}
     for e, t in enumerate(tasks):
         by_task.setdefault(t, []).append(e)

@@ -2,10 +2,10 @@
 policy's action chunk puts the hand from where the demonstration put it, in centimetres at the TCP.
 
 For every episode of a state-view dataset (``mgdata export --format state``), the frames of the last
-``--window`` control steps before the carry grasp closes (the gripper's first close after its first open) are
-sent to the checkpoint as ``mgdata eval --convention state`` would send them; the first ``--steps`` actions
-of each predicted chunk are compared with the demonstration's next actions: joint error (rad) and the
-distance between the TCPs those joint targets put the hand at (forward kinematics of the Panda, MuJoCo).
+``--window`` control steps before the carry grasp closes (the gripper's first close, after its first open if
+it starts closed) are sent to the checkpoint as ``mgdata eval --convention state`` would send them; the first
+``--steps`` actions of each predicted chunk are compared with the demonstration's next actions: joint error
+(rad) and the distance between the TCPs those joint targets put the hand at (forward kinematics, MuJoCo).
 Run it on the training demos and on demos of held-out layouts (``mgdata generate --tasks`` of tasks the policy
 never saw): the first says how well the policy fits, the second how well it generalises, without the
 compounding of a closed loop. The figures say whether the policy is precise enough for a grasp whose open
@@ -30,6 +30,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from bench_learn import carry_grasp_step
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -47,16 +48,13 @@ def _frames(data: Path) -> dict[str, np.ndarray]:
 
 
 def grasp_windows(episode: np.ndarray, action: np.ndarray, window: int, steps: int) -> list[np.ndarray]:
-    """Row indices, per episode, of the ``window`` steps before the carry grasp closes (each with ``steps``
-    demonstrated actions after it in the same episode)."""
+    """Row indices, per episode, of the ``window`` steps before the carry grasp closes
+    (:func:`bench_learn.carry_grasp_step`), each with ``steps`` demonstrated actions after it."""
     out = []
     for e in np.unique(episode):
         rows = np.flatnonzero(episode == e)
-        grip = action[rows, 7]
-        opened = np.flatnonzero(np.diff(grip) < 0)
-        closes = [k for k in np.flatnonzero(np.diff(grip) > 0) if opened.size and k > opened[0]]
-        if closes:
-            close = closes[0] + 1
+        close = carry_grasp_step(action[rows, 7])
+        if close is not None:
             out.append(rows[max(0, close - window): min(close, len(rows) - steps)])
     return out
 
