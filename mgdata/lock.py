@@ -5,7 +5,8 @@ never be left stale: the file may stay behind, but the next command locks it aga
 writes an output takes one: ``generate`` and ``render`` on their dataset (``<dataset>/.mgdata/lock``, through
 :class:`mgdata.record.commit.WriterLock`), ``merge``, ``render``, ``scenarios build`` and ``eval`` on their
 ``--out`` folder (:func:`output_lock`: ``.<name>.lock`` beside it, so it also guards an output that does not
-exist yet or is renamed into place at the end). A second writer is refused at once, with one error.
+exist yet or is renamed into place at the end), ``grasps generate`` and ``grasps validate`` on each category
+file they rewrite. A second writer is refused at once, with one error.
 
 Example::
 

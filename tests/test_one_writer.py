@@ -1,7 +1,7 @@
-"""One writer per output (issue 26 §2): ``render``, ``merge`` and ``scenarios build`` refuse a second
-process on the same ``--out`` with one ``error:`` line, and a holder killed with ``kill -9`` leaves no stale
-lock. Two real processes each time: a holder that takes the very lock the command takes
-(:func:`mgdata.lock.output_lock`) and the real ``mgdata`` command. (``eval``: tests/evaluate/.)"""
+"""One writer per output (issue 26 §2): ``render``, ``merge``, ``scenarios build`` and the grasp commands
+refuse a second process on the same ``--out`` (grasp file) with one ``error:`` line, and a holder killed with
+``kill -9`` leaves no stale lock. Two real processes each time: a holder that takes the very lock the command
+takes (:func:`mgdata.lock.output_lock`) and the real ``mgdata`` command. (``eval``: tests/evaluate/.)"""
 
 from __future__ import annotations
 
@@ -79,6 +79,28 @@ def test_a_second_writer_is_refused_and_a_killed_one_leaves_no_lock(command: str
     else:  # past the lock, the command reports its own (missing) input
         assert again.returncode == 2 and "no-such" in again.stderr, again.stderr
     assert not lock_path(out).exists()  # a command that ends removes its lock file
+
+
+def test_grasp_commands_take_one_writer_per_category_file(tmp_path: Path, holder: callable) -> None:
+    # a validate overwriting a generate's file of the same category lost the generate's work (seen while
+    # regenerating plates); runs on different categories still go side by side
+    db = tmp_path / "grasps"
+    assert mgdata("grasps", "generate", "jar/hinged_05", "--dir", db).returncode == 0
+    before = (db / "jar.json").read_bytes()
+    first = holder(db / "jar.json")
+    for args in (("generate", "jar/hinged_05"), ("validate", "jar/hinged_05")):
+        proc = mgdata("grasps", *args, "--dir", db)
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+        assert proc.stderr.strip().splitlines() == [
+            f"error: grasp file {db / 'jar.json'}: open for writing by another process (one writer per "
+            "output; wait for it to finish or stop it)"]
+    assert (db / "jar.json").read_bytes() == before
+    other = mgdata("grasps", "generate", "sponge/block_00", "--dir", db)
+    assert other.returncode == 0 and (db / "sponge.json").exists(), other.stderr
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    assert mgdata("grasps", "generate", "jar/hinged_05", "--dir", db).returncode == 0
+    assert sorted(p.name for p in db.iterdir()) == ["jar.json", "sponge.json"]  # the killed one's lock: gone
 
 
 def test_the_lock_is_exclusive_within_a_process_too(tmp_path: Path) -> None:

@@ -13,7 +13,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import fnmatch
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
@@ -23,6 +25,7 @@ from rich.table import Table
 from mgdata.console import plain_console
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp, GraspDB
+from mgdata.lock import output_lock
 from mgdata.paths import grasps_dir
 
 WELL_COVERED = 3
@@ -63,6 +66,16 @@ def _keep_result(g: Grasp, checked: dict[tuple, Grasp]) -> Grasp:
     """``g`` with the validation result of the stored generated grasp of the same id and pose, if any."""
     old = checked.get(_pose_key(g))
     return g if old is None else g.with_status(old.status, old.detail)
+
+
+@contextlib.contextmanager
+def _category_locks(root: Path, keys: list[str]) -> Iterator[None]:
+    """Hold the one-writer lock (:func:`mgdata.lock.output_lock`) of each category file ``keys`` touch:
+    runs on different categories go side by side; a second one on the same file is refused."""
+    with contextlib.ExitStack() as stack:
+        for category in sorted({k.split("/", 1)[0] for k in keys}):
+            stack.enter_context(output_lock(root / f"{category}.json", "grasp file"))
+        yield
 
 
 def register(app: typer.Typer) -> None:
@@ -133,22 +146,24 @@ def register(app: typer.Typer) -> None:
 
         root = _db_dir(directory, create=True)
         cand_cfg = load_grasp_config().candidates
-        db = GraspDB.load_dir(root)
         keys = _match(models, model_names(), "object model")
-        for key in keys:
-            old = db.objects.get(key, ())
-            kept = [g for g in old if g.source != "generated"]
-            ids = {g.id for g in kept}
-            checked = {_pose_key(g): g for g in old if g.source == "generated"}
-            new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg) if g.id not in ids]
-            if not kept and not new:  # its generated grasps of an earlier generator go too
-                db = db.without_object(key)
-                typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
-                continue
-            db = db.with_object(key, kept + new)
-            typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
-        for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
-            typer.echo(f"wrote {path}")
+        with _category_locks(root, keys):
+            db = GraspDB.load_dir(root)  # read under the locks: nobody else writes these files now
+            for key in keys:
+                old = db.objects.get(key, ())
+                kept = [g for g in old if g.source != "generated"]
+                ids = {g.id for g in kept}
+                checked = {_pose_key(g): g for g in old if g.source == "generated"}
+                new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg)
+                       if g.id not in ids]
+                if not kept and not new:  # its generated grasps of an earlier generator go too
+                    db = db.without_object(key)
+                    typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
+                    continue
+                db = db.with_object(key, kept + new)
+                typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
+            for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
+                typer.echo(f"wrote {path}")
 
     @grasps.command("validate")
     def validate(models: Models = None, all_: All = False, grasp_ids: GraspIds = None,
@@ -165,17 +180,19 @@ def register(app: typer.Typer) -> None:
         settings = load_grasp_config()
         db = GraspDB.load_dir(root)
         keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
-        for key in keys:
-            updated: list[Grasp] = []
-            for g in db.grasps(key):
-                chosen = not grasp_ids or any(fnmatch.fnmatchcase(g.id, p) for p in grasp_ids)
-                if chosen and (g.status == "unvalidated" or all_):
-                    status, detail = check_grasp(key, g, settings.check)
-                    g = g.with_status(status, detail)
-                    typer.echo(f"{key} {g.id}: {status} ({detail})")
-                updated.append(g)
-            db = db.with_object(key, updated)
-            db.write_dir(root, categories=[key.split("/", 1)[0]])
+        with _category_locks(root, keys):
+            db = GraspDB.load_dir(root)  # again, under the locks (another run may have written them)
+            for key in keys:
+                updated: list[Grasp] = []
+                for g in db.grasps(key):
+                    chosen = not grasp_ids or any(fnmatch.fnmatchcase(g.id, p) for p in grasp_ids)
+                    if chosen and (g.status == "unvalidated" or all_):
+                        status, detail = check_grasp(key, g, settings.check)
+                        g = g.with_status(status, detail)
+                        typer.echo(f"{key} {g.id}: {status} ({detail})")
+                    updated.append(g)
+                db = db.with_object(key, updated)
+                db.write_dir(root, categories=[key.split("/", 1)[0]])
         valid = sum(g.status == "valid" for k in keys for g in db.grasps(k))
         total = sum(len(db.grasps(k)) for k in keys)
         typer.echo(f"{valid} of {total} grasps valid over {len(keys)} model(s)")
