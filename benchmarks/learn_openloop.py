@@ -3,9 +3,10 @@ policy's action chunk puts the hand from where the demonstration put it, in cent
 
 For every episode of a state-view dataset (``mgdata export --format state``), the frames of the last
 ``--window`` control steps before the carry grasp closes (the gripper's first close, after its first open if
-it starts closed) are sent to the checkpoint as ``mgdata eval --convention state`` would send them; the first
-``--steps`` actions of each predicted chunk are compared with the demonstration's next actions: joint error
-(rad) and the distance between the TCPs those joint targets put the hand at (forward kinematics, MuJoCo).
+it starts closed; ``--phase goal``: before the demo ends, the placing and the hold at rest) are sent to the
+checkpoint as ``mgdata eval --convention state`` would send them; the first ``--steps`` actions of each
+predicted chunk are compared with the demonstration's next actions: joint error (rad) and the distance between
+the TCPs those joint targets put the hand at (forward kinematics, MuJoCo).
 Run it on the training demos and on demos of held-out layouts (``mgdata generate --tasks`` of tasks the policy
 never saw): the first says how well the policy fits, the second how well it generalises, without the
 compounding of a closed loop. The figures say whether the policy is precise enough for a grasp whose open
@@ -47,15 +48,16 @@ def _frames(data: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def grasp_windows(episode: np.ndarray, action: np.ndarray, window: int, steps: int) -> list[np.ndarray]:
+def windows(episode: np.ndarray, action: np.ndarray, window: int, steps: int, phase: str) -> list[np.ndarray]:
     """Row indices, per episode, of the ``window`` steps before the carry grasp closes
-    (:func:`bench_learn.carry_grasp_step`), each with ``steps`` demonstrated actions after it."""
+    (:func:`bench_learn.carry_grasp_step`; ``phase`` "grasp") or before the demo ends (``"goal"``: the
+    placing and the hold at rest), each with ``steps`` demonstrated actions after it."""
     out = []
     for e in np.unique(episode):
         rows = np.flatnonzero(episode == e)
-        close = carry_grasp_step(action[rows, 7])
-        if close is not None:
-            out.append(rows[max(0, close - window): min(close, len(rows) - steps)])
+        end = carry_grasp_step(action[rows, 7]) if phase == "grasp" else len(rows) - steps
+        if end is not None:
+            out.append(rows[max(0, end - window): min(end, len(rows) - steps)])
     return out
 
 
@@ -71,7 +73,7 @@ def predict(args: argparse.Namespace) -> None:
     saved = {}
     for k, data in enumerate(args.data):
         f = _frames(data)
-        rows = np.concatenate(grasp_windows(f["episode"], f["action"], args.window, args.steps))
+        rows = np.concatenate(windows(f["episode"], f["action"], args.window, args.steps, args.phase))
         chunks = [policy.infer({"observation.state": f["observation.state"][r],
                                 "observation.environment_state": f["observation.environment_state"][r],
                                 "task": ""})["actions"][: args.steps] for r in rows]
@@ -106,7 +108,9 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--checkpoint", type=Path, required=True)
     p.add_argument("--data", type=Path, action="append", required=True, help="state-view dataset (repeat)")
-    p.add_argument("--window", type=int, default=40, help="control steps before the grasp closes")
+    p.add_argument("--window", type=int, default=40, help="control steps looked at")
+    p.add_argument("--phase", choices=("grasp", "goal"), default="grasp",
+                   help="the steps before the carry grasp closes, or the last steps of the demo")
     p.add_argument("--steps", type=int, default=10, help="actions compared per chunk (executed per query)")
     p.add_argument("--lerobot-python", default=os.environ.get("LEROBOT_PYTHON", sys.executable))
     p.add_argument("--predict", action="store_true", help=argparse.SUPPRESS)
@@ -118,7 +122,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         save = Path(tmp) / "chunks.npz"
         cmd = [args.lerobot_python, __file__, "--predict", "--save", str(save), "--checkpoint",
-               str(args.checkpoint), "--window", str(args.window), "--steps", str(args.steps)]
+               str(args.checkpoint), "--window", str(args.window), "--steps", str(args.steps),
+               "--phase", args.phase]
         for d in args.data:
             cmd += ["--data", str(d)]
         subprocess.run(cmd, check=True, env={**os.environ, "HF_HUB_OFFLINE": "1", "OMP_NUM_THREADS": "1"})
@@ -148,8 +153,9 @@ def main() -> None:
             "gripper_agrees": round(grip, 3)}
         r = report[str(data)]
         t, o = r["tcp_err_cm"], r["off_path_cm"]
+        where = "grasp closes" if args.phase == "grasp" else "demo ends"
         print(f"{data}: {r['episodes']} episodes, {r['frames']} frames in the {args.window} steps before the "
-              f"grasp closes; TCP off the demonstration by {t['median']:.2f} cm median, {t['p90']:.2f} cm "
+              f"{where}; TCP off the demonstration by {t['median']:.2f} cm median, {t['p90']:.2f} cm "
               f"p90 (worst episode {t['worst_episode']:.2f} cm), off its path {o['median']:.2f} cm median, "
               f"{o['p90']:.2f} cm p90; "
               f"joint error {' '.join(f'{v:.3f}' for v in joint)} rad; gripper agrees {100 * grip:.1f} %")
