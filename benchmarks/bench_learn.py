@@ -298,7 +298,9 @@ def main() -> None:
                    help="stop training after this many seconds and use its last checkpoint")
     p.add_argument("--horizon", type=int, default=None, help="cut rollouts (smoke runs)")
     p.add_argument("--lerobot-python", default=os.environ.get("LEROBOT_PYTHON", sys.executable))
-    p.add_argument("--reuse", action="store_true", help="reuse data and checkpoint already under --out")
+    p.add_argument("--reuse", action="store_true",
+                   help="reuse data, state view, scenarios and checkpoint already under --out "
+                   "(a missing state view is exported again from the data)")
     p.add_argument("--stop-after", choices=("data", "train"), default=None)
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
@@ -319,10 +321,11 @@ def main() -> None:
     data, state = out / "data", out / "data_state"
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.time()
-    if not (args.reuse and state.is_dir()):
+    if not (args.reuse and (data / "meta/info.json").is_file()):
         run([*MGDATA, "generate", "--family", args.family, "--tasks", f"0-{ntasks - 1}", "--per-task",
              str(per_task), "--workers", str(args.workers), "--out", str(data)],
             {"MGDATA_ROOT": str(train_root)}, out / "generate.log")
+    if not (args.reuse and state.is_dir()):
         shutil.rmtree(state, ignore_errors=True)
         run([*MGDATA, "export", str(data), str(state), "--format", "state"], {"MGDATA_ROOT": str(train_root)})
     c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
