@@ -19,6 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.table import Table
 
@@ -57,15 +58,18 @@ def _match(patterns: list[str], names: list[str], what: str) -> list[str]:
     return found
 
 
-def _pose_key(g: Grasp) -> tuple:
-    """A grasp's id, frame and pose as stored in the file (rounded like ``db.write_file``)."""
-    return g.id, g.frame, tuple(round(v, 6) for v in g.pos), tuple(round(v, 8) for v in g.quat)
+POSE_TOLERANCE = 1e-6
+"""m and quaternion units: a regenerated candidate this close to the stored one is the same grasp (the
+file stores 6 and 8 decimals, and the last can flip between runs of the generator's arithmetic)."""
 
 
-def _keep_result(g: Grasp, checked: dict[tuple, Grasp]) -> Grasp:
-    """``g`` with the validation result of the stored generated grasp of the same id and pose, if any."""
-    old = checked.get(_pose_key(g))
-    return g if old is None else g.with_status(old.status, old.detail)
+def _keep_result(g: Grasp, checked: dict[tuple[str, str], Grasp]) -> Grasp:
+    """The stored generated grasp of ``g``'s id and frame (its pose and validation result) if its pose is
+    ``g``'s within :data:`POSE_TOLERANCE`, else ``g``."""
+    old = checked.get((g.id, g.frame))
+    same = old is not None and max(np.abs(np.subtract(old.pos, g.pos)).max(),
+                                   np.abs(np.subtract(old.quat, g.quat)).max()) <= POSE_TOLERANCE
+    return old if same else g  # type: ignore[return-value]
 
 
 @contextlib.contextmanager
@@ -153,7 +157,7 @@ def register(app: typer.Typer) -> None:
                 old = db.objects.get(key, ())
                 kept = [g for g in old if g.source != "generated"]
                 ids = {g.id for g in kept}
-                checked = {_pose_key(g): g for g in old if g.source == "generated"}
+                checked = {(g.id, g.frame): g for g in old if g.source == "generated"}
                 new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg)
                        if g.id not in ids]
                 if not kept and not new:  # its generated grasps of an earlier generator go too

@@ -35,15 +35,21 @@ def test_generate_validate_list(tmp_path: Path) -> None:
     listed = _run("list", "--dir", str(tmp_path))
     assert "jar/hinged_05" in listed.stdout and "24" in listed.stdout
     # regenerating keeps annotated grasps and replaces generated ones; a generated grasp whose stored pose is
-    # the generator's keeps its result, one whose pose differs comes back at the generator's pose, unchecked
+    # the generator's keeps its result, one whose pose differs comes back at the generator's pose, unchecked;
+    # one stored a rounding step off (the last stored digit of a quaternion) is the same grasp: it stays as
+    # stored, result and all (a file written by another run of the generator's arithmetic)
     annotated = checked[0].__class__("mine", (0.0, 0.0, 0.06), (1.0, 0.0, 0.0, 0.0), "side", "annotated")
     moved = replace(checked[0], pos=(checked[0].pos[0], checked[0].pos[1], checked[0].pos[2] + 0.01))
-    edited = GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, moved, *checked[1:]])
+    nudged = replace(checked[1], quat=(checked[1].quat[0] + 1e-8, *checked[1].quat[1:]))
+    edited = GraspDB.load_dir(tmp_path).with_object("jar/hinged_05", [annotated, moved, nudged, *checked[2:]])
     edited.write_dir(tmp_path)
+    stored = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")[2]
+    assert stored.quat != checked[1].quat
     assert _run("generate", "jar/hinged_05", "--dir", str(tmp_path)).returncode == 0
     again = GraspDB.load_dir(tmp_path).grasps("jar/hinged_05")
     assert again[0].id == "mine" and len(again) == 25
     assert (again[1].id, again[1].pos, again[1].status) == (checked[0].id, checked[0].pos, "unvalidated")
+    assert again[2] == stored and again[2].status == checked[1].status
     result = [(g.id, g.status, g.detail) for g in again[2:]]
     assert result == [(g.id, g.status, g.detail) for g in checked[1:]]
 
