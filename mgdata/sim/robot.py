@@ -213,7 +213,22 @@ def _load_panda_spec(xml: Path, decimate_visuals: bool, gripper: GripperConfig,
         site.group = 4
     if decimate_visuals:
         _decimate_visuals(spec, xml, VISUAL_DECIMATION, far_lod)
+    _meshes_in_memory(spec, xml)
     return spec
+
+
+def _meshes_in_memory(spec: mujoco.MjSpec, xml: Path) -> None:
+    """Hand the meshes still read from files to the spec as in-memory assets under their relative names, so
+    that the compiled model (stored in every dataset and scenario) names ``panda/link0.stl``, not the path
+    of this install: the same inputs give the same bytes wherever mgdata is installed."""
+    meshdir = Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
+    assets = dict(spec.assets)
+    for mesh in spec.meshes:
+        if mesh.file:
+            assets[mesh.file] = (meshdir / mesh.file).read_bytes()
+    spec.assets = assets
+    spec.modelfiledir = ""
+    spec.meshdir = ""
 
 
 def robot_body_ids(model: mujoco.MjModel) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -105,3 +106,23 @@ def test_each_load_is_an_independent_copy_that_compiles_like_a_fresh_process(tmp
             f"mujoco.mj_saveModel(robot.load_panda_spec(far_lod=0.05).compile(), {str(fresh)!r}, None)")
     subprocess.run([sys.executable, "-c", code], check=True)
     assert _model_bytes(again, tmp_path, "again.mjb") == fresh.read_bytes()
+
+
+def test_the_compiled_model_is_the_same_wherever_the_panda_is_installed(tmp_path: Path) -> None:
+    """Meshes become in-memory assets under their relative names: the MJB every dataset and scenario stores
+    names ``panda/link0.stl``, never this install's path, so a Panda MJCF elsewhere (another venv, another
+    checkout) compiles to the same bytes."""
+    here = robot.load_panda_spec(far_lod=0.05).compile()
+    paths = [p for p in here.paths.split(b"\0") if p]
+    assert paths and all(not p.startswith(b"/") for p in paths), paths[:3]
+    original = robot.panda_xml_path()
+    elsewhere = tmp_path / "another" / "install"
+    elsewhere.mkdir(parents=True)
+    (elsewhere / original.name).write_bytes(original.read_bytes())
+    (elsewhere / "assets").symlink_to(original.parent / "assets", target_is_directory=True)
+    moved = tmp_path / "moved.mjb"
+    code = ("import mujoco; from mgdata.sim import robot; "
+            f"mujoco.mj_saveModel(robot.load_panda_spec(far_lod=0.05).compile(), {str(moved)!r}, None)")
+    env = {**os.environ, "MGDATA_PANDA_XML": str(elsewhere / original.name)}
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    assert _model_bytes(here, tmp_path, "here.mjb") == moved.read_bytes()
