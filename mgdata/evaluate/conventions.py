@@ -16,7 +16,10 @@ A policy server receives one observation dict per query and answers with an acti
 Every observation also carries ``episode_seed`` (the per-rollout seed, as the reference's servers read it)
 and three ``mgdata/`` keys a model ignores and the reference policies read: ``mgdata/step`` (control step
 index), ``mgdata/scenario`` (the scenario's path in the set, e.g. ``jar/task_0000/base``) and
-``mgdata/command`` (8,) (the joint command in force: arm targets + gripper command).
+``mgdata/command`` (8,) (the joint command in force: arm targets + gripper command). A server whose metadata
+says ``observation_history`` > 1 (a policy reading several past observations: diffusion) also gets the
+observations of the steps between queries, flagged ``mgdata/observe_only`` (it records them and answers no
+actions).
 Images are uint8 RGB (H, W, 3); state is float32 (7 measured joints, rad + gripper opening, m); actions are
 7 joint targets (rad) + gripper command (1 close, 0 open).
 """
@@ -33,6 +36,7 @@ from mgdata.errors import PolicyError, RecipeError
 
 CONVENTIONS = ("pi0", "smolvla", "groot", "state")
 ENVIRONMENT_STATE = "observation.environment_state"
+OBSERVE_ONLY = "mgdata/observe_only"
 
 
 @dataclass(frozen=True)

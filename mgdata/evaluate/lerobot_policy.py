@@ -12,6 +12,12 @@ returns the policy's whole action chunk (``predict_action_chunk``, un-normalised
 post-processor); torch is seeded from ``(episode_seed, mgdata/step)`` first, so sampling policies give the
 same chunk for the same request.
 
+A policy that reads a history of observations (``n_obs_steps`` > 1: diffusion) gets it as LeRobot's own
+``select_action`` builds it: the metadata says ``observation_history: n``, ``mgdata eval`` then sends every
+step's observation (those between queries flagged ``mgdata/observe_only``: recorded, answered with no
+actions), and the server keeps the policy's observation queues per rollout (``mgdata/scenario``,
+``episode_seed``; a step that does not follow the last one starts them afresh).
+
 This module imports only numpy, torch, lerobot, websockets and msgpack, so it runs in a LeRobot
 environment kept apart from mgdata's (``scripts/check_lerobot_compat.sh`` builds one)::
 
@@ -23,6 +29,8 @@ or, with the ``lerobot`` extra installed in mgdata's environment, ``mgdata serve
 from __future__ import annotations
 
 import argparse
+import threading
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +42,10 @@ from mgdata.errors import PolicyError
 IMAGE_PREFIX = "observation.images."
 STATE = "observation.state"
 ENVIRONMENT_STATE = "observation.environment_state"
+OBSERVE_ONLY = "mgdata/observe_only"
 WRIST = "wrist"
+ROLLOUTS_KEPT = 64
+"""Rollouts whose observation queues a history policy's server keeps (the least recently seen go first)."""
 
 
 def _request_images(obs: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -105,13 +116,16 @@ class LeRobotPolicy:
         self.inputs = tuple(features)
         self.image_keys = tuple(k for k in features if k.startswith(IMAGE_PREFIX))
         self._sizes = {k: tuple(features[k].shape[-2:]) for k in self.image_keys}
+        self.history = int(getattr(self.policy.config, "n_obs_steps", 1) or 1)
+        self._rollouts: OrderedDict[tuple[str, int], tuple[int, dict[str, Any]]] = OrderedDict()
+        self._lock = threading.Lock()  # one connection's thread at a time swaps the policy's queues
 
     @property
     def metadata(self) -> dict[str, Any]:
         convention = "smolvla" if self.image_keys else "state"
         return {"policy": "lerobot", "type": self.type, "checkpoint": str(self.checkpoint),
                 "images": list(self.image_keys), "inputs": list(self.inputs), "convention": convention,
-                "mgdata": mgdata.__version__}
+                "observation_history": self.history, "mgdata": mgdata.__version__}
 
     def _image(self, key: str, image: np.ndarray) -> Any:
         torch = self._torch
@@ -154,12 +168,42 @@ class LeRobotPolicy:
         torch = self._torch
         frame = self.policy_frame(obs)
         seed = (int(obs.get("episode_seed", 0)) * 1_000_003 + int(obs.get("mgdata/step", 0))) % 2**63
-        torch.manual_seed(seed)
-        with torch.inference_mode():
-            chunk = self.policy.predict_action_chunk(self.pre(frame))
+        with self._lock, torch.inference_mode():
+            torch.manual_seed(seed)
+            batch = self.pre(frame)
+            if self.history > 1:
+                batch = self._observe(obs, batch)
+                if obs.get(OBSERVE_ONLY):
+                    return {"actions": np.zeros((0, self.policy.config.output_features["action"].shape[0]),
+                                                np.float32)}
+            chunk = self.policy.predict_action_chunk(batch)
             actions = self.post(chunk)
         out = np.asarray(actions.detach().cpu().numpy(), dtype=np.float32)
         return {"actions": out.reshape(-1, out.shape[-1])}
+
+    def _observe(self, obs: dict[str, Any], batch: dict[str, Any]) -> dict[str, Any]:
+        """Append ``batch`` to its rollout's observation queues and make them the policy's (what LeRobot's
+        ``select_action`` does at every step before ``predict_action_chunk`` reads them); ``batch`` as
+        ``predict_action_chunk`` then takes it (without the pre-processor's empty ``action``)."""
+        from lerobot.policies.utils import populate_queues
+
+        key = (str(obs.get("mgdata/scenario", "")), int(obs.get("episode_seed", 0)))
+        step = int(obs.get("mgdata/step", 0))
+        last = self._rollouts.pop(key, None)
+        if last is None or step != last[0] + 1:
+            self.policy.reset()
+            queues = self.policy._queues
+        else:
+            queues = last[1]
+        batch = {k: v for k, v in batch.items() if k != "action"}
+        if self.policy.config.image_features:
+            batch["observation.images"] = self._torch.stack(
+                [batch[k] for k in self.policy.config.image_features], dim=-4)
+        self.policy._queues = populate_queues(queues, batch, exclude_keys=["action"])
+        self._rollouts[key] = (step, self.policy._queues)
+        while len(self._rollouts) > ROLLOUTS_KEPT:
+            self._rollouts.popitem(last=False)
+        return batch
 
 
 def main() -> None:

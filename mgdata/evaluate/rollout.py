@@ -3,7 +3,8 @@
 The loop (20 Hz, the dataset's rate): restore the scenario bit for bit; at step ``t`` with no actions left,
 render the cameras and query the policy with the observation (:mod:`mgdata.evaluate.conventions`); execute
 the first ``chunk_steps`` actions of the reply (or, with temporal ensembling, query at every step and execute
-the ensembled action, :mod:`mgdata.evaluate.ensemble`), each through
+the ensembled action, :mod:`mgdata.evaluate.ensemble`; a server with ``observation_history`` > 1 also gets
+every step's observation between queries, flagged observe-only), each through
 :class:`~mgdata.episode.runner.EpisodeRunner` (the executor's and teleop's step: controller → labeller →
 monitor → engagement → success column → gate). Every step is labelled and monitored; a violation does not
 end the rollout (a policy may still succeed: "unsafe success"). The rollout ends
@@ -43,6 +44,7 @@ from mgdata.errors import SimulationError
 from mgdata.evaluate.client import PolicyClient, PolicyTimeout
 from mgdata.evaluate.conventions import (
     ENVIRONMENT_STATE,
+    OBSERVE_ONLY,
     Observation,
     check_cameras,
     decode_actions,
@@ -170,23 +172,29 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                           connect_timeout=settings.connect_timeout_s) as client:
             if settings.convention == "state" or ENVIRONMENT_STATE in client.metadata.get("inputs", ()):
                 env_layout = EnvironmentLayout(scene.model)
+            history = int(client.metadata.get("observation_history", 1) or 1)
             while end is None:
-                render = rig is not None and (settings.video_dir is not None or (bool(cameras) and not chunk))
+                observe = not chunk or history > 1  # a history policy sees every step's observation
+                render = rig is not None and (settings.video_dir is not None or (bool(cameras) and observe))
                 images = rig.render() if render else {}
                 if settings.video_dir is not None:
                     video.append(images)
-                if not chunk:
+                if observe:
                     env = None
                     if env_layout is not None:
                         mujoco.mj_kinematics(scene.model, scene.data)  # positions of this very state
                         env = env_layout.compute(scene.model, scene.data)
                     obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
                                       episode_seed, runner.steps, job.scenario, env)
+                    request = encode(settings.convention, cameras, obs)
+                    if chunk:
+                        request[OBSERVE_ONLY] = True
                     try:
-                        reply = client.infer(encode(settings.convention, cameras, obs))
+                        reply = client.infer(request)
                     except PolicyTimeout:
                         end = "policy_timeout"
                         break
+                if not chunk:
                     actions = decode_actions(reply)
                     if ensemble is None:
                         chunk = list(actions[: settings.chunk_steps])

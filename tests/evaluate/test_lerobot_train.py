@@ -52,41 +52,100 @@ def _two_demos(out: Path) -> Path:
     return out
 
 
-def test_lerobot_train_serve_eval_state_only(scenario_set: Path, tmp_path: Path) -> None:
-    python, root = _venv_python(), project_root()
-    data = _two_demos(tmp_path / "jar")
-    state = tmp_path / "jar_state"
+@pytest.fixture(scope="module")
+def state_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The state view (``mgdata export --format state``) of two kept jar demos."""
+    tmp = tmp_path_factory.mktemp("lerobot")
+    data = _two_demos(tmp / "jar")
+    state = tmp / "jar_state"
     subprocess.run([*MGDATA, "export", str(data), str(state), "--format", "state"], check=True)
     assert pq.read_table(next(state.glob("data/*/*.parquet"))).num_rows > 300
-    env = {**os.environ, "PYTHONPATH": str(root), "HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1",
-           "WANDB_MODE": "disabled", "OMP_NUM_THREADS": "1"}
-    out = tmp_path / "train"
+    return state
+
+
+def _env() -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": str(project_root()), "HF_HUB_OFFLINE": "1",
+            "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled", "OMP_NUM_THREADS": "1"}
+
+
+def _train(state: Path, out: Path, policy: list[str]) -> Path:
+    """``lerobot-train`` a few steps on ``state``; the checkpoint folder."""
     trained = subprocess.run(
-        [python, "-m", "lerobot.scripts.lerobot_train", "--dataset.repo_id=mgdata/jar_state",
-         f"--dataset.root={state}", "--policy.type=act", "--policy.device=cpu", "--policy.push_to_hub=false",
-         "--wandb.enable=false", "--policy.pretrained_backbone_weights=null", "--policy.dim_model=32",
-         "--policy.dim_feedforward=64", "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1",
-         "--policy.use_vae=false", "--policy.chunk_size=10", "--policy.n_action_steps=10", "--batch_size=8",
+        [_venv_python(), "-m", "lerobot.scripts.lerobot_train", "--dataset.repo_id=mgdata/jar_state",
+         f"--dataset.root={state}", "--policy.device=cpu", "--policy.push_to_hub=false",
+         "--wandb.enable=false", "--policy.pretrained_backbone_weights=null", *policy, "--batch_size=8",
          "--steps=6", "--save_freq=6", "--log_freq=2", "--num_workers=0", f"--output_dir={out}"],
-        capture_output=True, text=True, env=env, timeout=900)
+        capture_output=True, text=True, env=_env(), timeout=900)
     assert trained.returncode == 0, trained.stderr[-3000:]
-    ckpt = out / "checkpoints" / "last" / "pretrained_model"
-    features = json.loads((ckpt / "config.json").read_text())["input_features"]
-    assert set(features) == {"observation.state", "observation.environment_state"}
-    serve = [python, "-m", "mgdata.evaluate.lerobot_policy", "--checkpoint", str(ckpt), "--port", "0"]
-    proc = subprocess.Popen(serve, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    return out / "checkpoints" / "last" / "pretrained_model"
+
+
+def _serve_and_eval(ckpt: Path, scenarios: Path, results: Path, *extra: str) -> list[dict]:
+    """Serve ``ckpt`` from the LeRobot environment, run ``mgdata eval`` on it; the rollout records."""
+    serve = [_venv_python(), "-m", "mgdata.evaluate.lerobot_policy", "--checkpoint", str(ckpt), "--port", "0"]
+    proc = subprocess.Popen(serve, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
     try:
         assert proc.stdout is not None
         url = next(line.split(" on ")[1].split()[0] for line in proc.stdout if line.startswith("serving "))
-        results = tmp_path / "results"
-        subprocess.run([*MGDATA, "eval", "--policy", url, "--scenarios", str(scenario_set), "--convention",
-                        "state", "--seeds", "0", "--horizon", "30", "--out", str(results)],
-                       check=True, timeout=600)
+        subprocess.run([*MGDATA, "eval", "--policy", url, "--scenarios", str(scenarios), "--convention",
+                        "state", "--seeds", "0", "--out", str(results), *extra], check=True, timeout=600)
     finally:
         proc.terminate()
         proc.wait(timeout=60)
-    records = [json.loads(line) for line in (results / "rollouts.jsonl").read_text().splitlines()]
+    return [json.loads(line) for line in (results / "rollouts.jsonl").read_text().splitlines()]
+
+
+ACT = ["--policy.type=act", "--policy.dim_model=32", "--policy.dim_feedforward=64",
+       "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--policy.use_vae=false",
+       "--policy.chunk_size=10", "--policy.n_action_steps=10"]
+DIFFUSION = ["--policy.type=diffusion", "--policy.down_dims=[16,32]", "--policy.diffusion_step_embed_dim=16",
+             "--policy.num_inference_steps=2"]
+
+
+def test_lerobot_train_serve_eval_state_only(scenario_set: Path, state_view: Path, tmp_path: Path) -> None:
+    ckpt = _train(state_view, tmp_path / "train", ACT)
+    features = json.loads((ckpt / "config.json").read_text())["input_features"]
+    assert set(features) == {"observation.state", "observation.environment_state"}
+    results = tmp_path / "results"
+    records = _serve_and_eval(ckpt, scenario_set, results, "--horizon", "30")
     assert [r["condition"] for r in records] == ["base", "target"]
     assert all(r["end"] == "timeout" and r["steps"] == 30 for r in records)
     assert json.loads((results / "eval.json").read_text())["policy_metadata"]["inputs"] == [
         "observation.state", "observation.environment_state"]
+
+
+HISTORY_PROBE = """
+import json, sys
+import numpy as np
+from mgdata.evaluate.lerobot_policy import LeRobotPolicy
+p = LeRobotPolicy(sys.argv[1])
+width = p.policy.config.input_features["observation.environment_state"].shape[0]
+def obs(step, only=False):
+    o = {"observation.state": np.full(8, 0.1 * step, np.float32), "task": "t", "episode_seed": 7,
+         "observation.environment_state": np.zeros(width, np.float32), "mgdata/step": step,
+         "mgdata/scenario": "jar/task_0000/base"}
+    return {**o, "mgdata/observe_only": True} if only else o
+shapes = [p.infer(obs(0))["actions"].shape, p.infer(obs(1, True))["actions"].shape,
+          p.infer(obs(2))["actions"].shape]
+queued = [float(s[0, 0]) for s in p.policy._queues["observation.state"]]
+expected = [float(p.pre(p.policy_frame(obs(k)))["observation.state"][0, 0]) for k in (1, 2)]
+print(json.dumps({"history": p.metadata["observation_history"], "shapes": shapes, "queued": queued,
+                  "expected": expected}))
+"""
+
+
+def test_a_diffusion_policy_sees_every_step(scenario_set: Path, state_view: Path, tmp_path: Path) -> None:
+    """Diffusion reads the last two observations (``n_obs_steps``): the server keeps them per rollout as
+    LeRobot's ``select_action`` does, ``mgdata eval`` sends the steps between queries observe-only, and the
+    queue at a query holds the previous step's observation and this one's."""
+    ckpt = _train(state_view, tmp_path / "train", DIFFUSION)
+    probe = subprocess.run([_venv_python(), "-c", HISTORY_PROBE, str(ckpt)], capture_output=True, text=True,
+                           env=_env(), timeout=600)
+    assert probe.returncode == 0, probe.stderr[-3000:]
+    got = json.loads(probe.stdout.strip().splitlines()[-1])
+    assert got["history"] == 2
+    assert got["shapes"][1] == [0, 8] and got["shapes"][0] == got["shapes"][2] and got["shapes"][0][1] == 8
+    assert got["queued"] == pytest.approx(got["expected"], abs=1e-6)
+    records = _serve_and_eval(ckpt, scenario_set, tmp_path / "results", "--horizon", "20",
+                              "--chunk-steps", "8")
+    assert all(r["end"] == "timeout" and r["steps"] == 20 for r in records)
