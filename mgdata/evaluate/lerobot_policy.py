@@ -10,7 +10,8 @@ reads it, and ``task``. The metadata frame lists the policy's ``inputs``, so ``m
 environment state whenever the policy reads it (``--convention state``: no camera is rendered). A query
 returns the policy's whole action chunk (``predict_action_chunk``, un-normalised by the
 post-processor); torch is seeded from ``(episode_seed, mgdata/step)`` first, so sampling policies give the
-same chunk for the same request.
+same chunk for the same request. Queries are answered one at a time (LeRobot's pre- and post-processors are
+not thread-safe: with two ``mgdata eval`` workers on one server their observations crossed).
 
 A policy that reads a history of observations (``n_obs_steps`` > 1: diffusion) gets it as LeRobot's own
 ``select_action`` builds it: the metadata says ``observation_history: n``, ``mgdata eval`` then sends every
@@ -118,7 +119,11 @@ class LeRobotPolicy:
         self._sizes = {k: tuple(features[k].shape[-2:]) for k in self.image_keys}
         self.history = int(getattr(self.policy.config, "n_obs_steps", 1) or 1)
         self._rollouts: OrderedDict[tuple[str, int], tuple[int, dict[str, Any]]] = OrderedDict()
-        self._lock = threading.Lock()  # one connection's thread at a time swaps the policy's queues
+        self._lock = threading.Lock()
+        """One query at a time: the server answers each connection in its own thread, and LeRobot's processor
+        steps keep the transition they work on in the step object (``_current_transition``), so two
+        rollouts queried at once crossed their observations (and a history policy's queues are swapped
+        per rollout)."""
 
     @property
     def metadata(self) -> dict[str, Any]:

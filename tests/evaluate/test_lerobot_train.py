@@ -149,3 +149,38 @@ def test_a_diffusion_policy_sees_every_step(scenario_set: Path, state_view: Path
     records = _serve_and_eval(ckpt, scenario_set, tmp_path / "results", "--horizon", "20",
                               "--chunk-steps", "8")
     assert all(r["end"] == "timeout" and r["steps"] == 20 for r in records)
+
+
+CONCURRENT_PROBE = """
+import json, sys, threading
+import numpy as np
+from mgdata.evaluate.lerobot_policy import LeRobotPolicy
+p = LeRobotPolicy(sys.argv[1])
+width = p.policy.config.input_features["observation.environment_state"].shape[0]
+def obs(k):
+    return {"observation.state": np.full(8, 0.05 * k, np.float32), "task": "t", "episode_seed": k,
+            "observation.environment_state": np.full(width, 0.01 * k, np.float32), "mgdata/step": 0,
+            "mgdata/scenario": "s"}
+alone = {k: p.infer(obs(k))["actions"] for k in range(4)}
+wrong = []
+def worker(k):
+    for _ in range(150):
+        if not np.array_equal(p.infer(obs(k))["actions"], alone[k]):
+            wrong.append(k)
+threads = [threading.Thread(target=worker, args=(k,)) for k in range(4)]
+[t.start() for t in threads]
+[t.join() for t in threads]
+print(json.dumps({"wrong": len(wrong), "distinct": len({a.tobytes() for a in alone.values()})}))
+"""
+
+
+def test_concurrent_queries_get_their_own_answers(state_view: Path, tmp_path: Path) -> None:
+    """The server answers each connection in a thread; four threads querying one policy at once each get
+    the answer their observation gets alone (LeRobot's processor steps hold the transition they work on:
+    unserialised, two rollouts' observations crossed)."""
+    ckpt = _train(state_view, tmp_path / "train", ACT)
+    probe = subprocess.run([_venv_python(), "-c", CONCURRENT_PROBE, str(ckpt)], capture_output=True,
+                           text=True, env=_env(), timeout=600)
+    assert probe.returncode == 0, probe.stderr[-3000:]
+    got = json.loads(probe.stdout.strip().splitlines()[-1])
+    assert got == {"wrong": 0, "distinct": 4}
