@@ -11,9 +11,7 @@ dataset's stored scene and ``sim.physics_state`` without the recipe) and is fixe
   Per instance, in this order:
 
   - a rigid object: ``<name>.pos.{x,y,z}`` (m) and ``<name>.quat.{w,x,y,z}`` of its root body, in the
-    **robot base frame** (the quaternion's sign made ``w >= 0``), then ``<name>.size.{x,y,z}`` (m): the
-    extents of the box around its collision geoms (all its bodies, joints at their reference values) along
-    the root body's axes, a constant of the scene: the object's shape, which its pose does not give;
+    **robot base frame** (the quaternion's sign made ``w >= 0``);
   - a liquid (bodies ``<name>/pNNN``): ``<name>.centroid.{x,y,z}`` of its spheres, base frame;
   - dust (mocap bodies ``<name>/dNNN``): ``<name>.left``, the fraction of specks not yet wiped;
   - then each hinge or slide joint of the instance (``<name>/<joint>``, model order): ``<name>.<joint>``,
@@ -24,8 +22,7 @@ dataset's stored scene and ``sim.physics_state`` without the recipe) and is fixe
 Example::
 
     layout = EnvironmentLayout(model)
-    layout.names                          # ('jar.pos.x', …, 'jar.quat.z', 'jar.size.x', …, 'jar.lid_hinge',
-                                          #  …, 'goal.radius')
+    layout.names                          # ('jar.pos.x', …, 'jar.quat.z', 'jar.lid_hinge', …, 'goal.radius')
     vec = layout.compute(model, data)     # float32 (len(layout.names),), after mj_kinematics / mj_forward
 """
 
@@ -44,28 +41,7 @@ PARK_HALF_Z = -5.0
 _ARTICULATED = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 NOT_INSTANCES = ("table", "goal")
 """World bodies that are never a task object: the table and the goal region (listed apart)."""
-_POSE = ("pos.x", "pos.y", "pos.z", "quat.w", "quat.x", "quat.y", "quat.z", "size.x", "size.y", "size.z")
-_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-
-
-def object_size(model: mujoco.MjModel, body: int) -> np.ndarray:
-    """(3,) extents (m) along world-child ``body``'s axes of the box around the collision geoms of it and its
-    descendants (a mesh's vertices, a primitive's bounding box), every joint at its reference value
-    (``qpos0``); all its geoms if none collides."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    geoms = np.flatnonzero(model.body_rootid[model.geom_bodyid] == body)
-    colliding = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
-    points = []
-    for g in colliding if colliding.size else geoms:
-        mesh = model.geom_dataid[g] if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH else -1
-        local = (model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
-                 if mesh >= 0 else model.geom_aabb[g, :3] + _CORNERS * model.geom_aabb[g, 3:])
-        points.append(data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T)
-    if not points:
-        return np.zeros(3)
-    in_body = (np.concatenate(points) - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
-    return in_body.max(axis=0) - in_body.min(axis=0)
+_POSE = ("pos.x", "pos.y", "pos.z", "quat.w", "quat.x", "quat.y", "quat.z")
 
 
 def _prefixed(model: mujoco.MjModel, kind: mujoco.mjtObj, count: int, prefix: str) -> list[int]:
@@ -108,7 +84,7 @@ class EnvironmentLayout:
                 self._parts.append(("liquid", np.array(particles)))
                 names += [f"{name}.centroid.{a}" for a in "xyz"]
             else:
-                self._parts.append(("pose", (b, object_size(model, b))))
+                self._parts.append(("pose", b))
                 names += [f"{name}.{p}" for p in _POSE]
             for j in joints:
                 if int(model.jnt_type[j]) in _ARTICULATED:
@@ -136,11 +112,11 @@ class EnvironmentLayout:
         out: list[float] = []
         for kind, ref in self._parts:
             if kind == "pose":
-                b, size = ref  # type: ignore[misc]
+                b = int(ref)  # type: ignore[call-overload]
                 q = np.empty(4)
                 mujoco.mju_mulQuat(q, inv, data.xquat[b])
                 q = -q if q[0] < 0 else q
-                out += [*((data.xpos[b] - origin) @ rot), *q, *size]
+                out += [*((data.xpos[b] - origin) @ rot), *q]
             elif kind == "liquid":
                 out += [*((data.xpos[ref].mean(axis=0) - origin) @ rot)]
             elif kind == "dust":

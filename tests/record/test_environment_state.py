@@ -51,38 +51,8 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def _raw_size(model: mujoco.MjModel, inst: str) -> np.ndarray:
-    """The extents along the instance's root axes of its colliding geoms' surface points at qpos0: a mesh's
-    vertices, a box's corners, 720 points on a cylinder's two rims, from the geoms' types and sizes."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    root = model.body(inst).id
-    points = []
-    for g in range(model.ngeom):
-        body = model.geom_bodyid[g]
-        while model.body_parentid[body] not in (0, body) and body != root:
-            body = model.body_parentid[body]
-        if body != root or not (model.geom_contype[g] or model.geom_conaffinity[g]):
-            continue
-        kind, size = model.geom_type[g], model.geom_size[g]
-        if kind == mujoco.mjtGeom.mjGEOM_MESH:
-            m = model.geom_dataid[g]
-            local = model.mesh_vert[model.mesh_vertadr[m]:model.mesh_vertadr[m] + model.mesh_vertnum[m]]
-        elif kind == mujoco.mjtGeom.mjGEOM_BOX:
-            local = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * size
-        else:
-            assert kind == mujoco.mjtGeom.mjGEOM_CYLINDER, kind
-            a = np.linspace(0, 2 * np.pi, 360, endpoint=False)
-            ring = np.stack([size[0] * np.cos(a), size[0] * np.sin(a), np.ones_like(a) * size[1]], axis=1)
-            local = np.concatenate([ring, ring * [1, 1, -1]])
-        points.append(data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T)
-    in_root = (np.concatenate(points) - data.xpos[root]) @ data.xmat[root].reshape(3, 3)
-    return in_root.max(axis=0) - in_root.min(axis=0)
-
-
 def _raw_expected(model: mujoco.MjModel, state: np.ndarray, spec: int) -> tuple[list[str], np.ndarray]:
-    """The documented layout from qpos alone: jar pose and size, food pose and size (base frame), the jar's
-    hinge, goal."""
+    """The documented layout from qpos alone: jar pose, food pose (base frame), the jar's hinge, goal."""
     data = mujoco.MjData(model)
     mujoco.mj_setState(model, data, state, spec)
     base_pos = model.body_pos[model.body("base").id]
@@ -101,9 +71,8 @@ def _raw_expected(model: mujoco.MjModel, state: np.ndarray, spec: int) -> tuple[
         mujoco.mju_mulQuat(q, inv, quat)
         q = q / np.linalg.norm(q)
         q = -q if q[0] < 0 else q
-        names += ([f"{inst}.pos.{a}" for a in "xyz"] + [f"{inst}.quat.{a}" for a in "wxyz"]
-                  + [f"{inst}.size.{a}" for a in "xyz"])
-        values += [*(base_rot.T @ (pos - base_pos)), *q, *_raw_size(model, inst)]
+        names += [f"{inst}.pos.{a}" for a in "xyz"] + [f"{inst}.quat.{a}" for a in "wxyz"]
+        values += [*(base_rot.T @ (pos - base_pos)), *q]
         for j in range(model.njnt):
             jname = model.joint(j).name
             if jname.startswith(f"{inst}/") and int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE):
