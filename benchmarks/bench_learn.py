@@ -277,6 +277,9 @@ def main() -> None:
                         "reachable grasps (0: all, round-robin; the recipes' default)")
     p.add_argument("--heldout", type=int, default=None, help="held-out draws (family 100, single 30)")
     p.add_argument("--variants", default="location,target", help="OOD conditions evaluated besides base")
+    p.add_argument("--seen", type=int, default=None,
+                   help="evaluate the first this many trained layouts (default: all of them; with "
+                   "hundreds of layouts a sample is enough)")
     p.add_argument("--steps", type=int, default=6000)
     p.add_argument("--batch", type=int, default=32)
     p.add_argument("--dim-model", type=int, default=128)
@@ -340,7 +343,8 @@ def main() -> None:
     scen = {"seen": out / "scen_seen", "heldout": out / "scen_heldout"}
     conds = ["base", *[c for c in args.variants.split(",") if c]]
     if not (args.reuse and (scen["seen"] / "manifest.json").exists()):
-        cmd = [*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"0-{ntasks - 1}",
+        seen = min(args.seen or ntasks, ntasks)
+        cmd = [*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"0-{seen - 1}",
                "--workers", str(args.workers), "--out", str(scen["seen"])]
         for c in conds:
             cmd += ["--condition", c]
