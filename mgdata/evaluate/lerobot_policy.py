@@ -19,8 +19,9 @@ step's observation (those between queries flagged ``mgdata/observe_only``: recor
 actions), and the server keeps the policy's observation queues per rollout (``mgdata/scenario``,
 ``episode_seed``; a step that does not follow the last one starts them afresh).
 
-This module imports only numpy, torch, lerobot, websockets and msgpack, so it runs in a LeRobot
-environment kept apart from mgdata's (``scripts/check_lerobot_compat.sh`` builds one)::
+This module imports only numpy, torch, lerobot, websockets, msgpack and mgdata modules that need nothing
+else (errors, the observation keys), so it runs in a LeRobot environment kept apart from mgdata's
+(``scripts/check_lerobot_compat.sh`` builds one)::
 
     LEROBOT_VENV/bin/python -m mgdata.evaluate.lerobot_policy --checkpoint ckpt/ --port 8000
 
@@ -39,11 +40,11 @@ import numpy as np
 
 import mgdata
 from mgdata.errors import PolicyError
+from mgdata.evaluate.conventions import OBSERVE_ONLY
 
 IMAGE_PREFIX = "observation.images."
 STATE = "observation.state"
 ENVIRONMENT_STATE = "observation.environment_state"
-OBSERVE_ONLY = "mgdata/observe_only"
 WRIST = "wrist"
 ROLLOUTS_KEPT = 64
 """Rollouts whose observation queues a history policy's server keeps (the least recently seen go first)."""
