@@ -40,11 +40,10 @@ import numpy as np
 
 import mgdata
 from mgdata.errors import PolicyError
-from mgdata.evaluate.conventions import OBSERVE_ONLY
+from mgdata.evaluate.conventions import ENVIRONMENT_STATE, OBSERVE_ONLY
 
 IMAGE_PREFIX = "observation.images."
 STATE = "observation.state"
-ENVIRONMENT_STATE = "observation.environment_state"
 WRIST = "wrist"
 ROLLOUTS_KEPT = 64
 """Rollouts whose observation queues a history policy's server keeps (the least recently seen go first)."""
@@ -205,7 +204,7 @@ class LeRobotPolicy:
         if self.policy.config.image_features:
             batch["observation.images"] = self._torch.stack(
                 [batch[k] for k in self.policy.config.image_features], dim=-4)
-        self.policy._queues = populate_queues(queues, batch, exclude_keys=["action"])
+        self.policy._queues = populate_queues(queues, batch)
         self._rollouts[key] = (step, self.policy._queues)
         while len(self._rollouts) > ROLLOUTS_KEPT:
             self._rollouts.popitem(last=False)

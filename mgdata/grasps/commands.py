@@ -67,9 +67,10 @@ def _keep_result(g: Grasp, checked: dict[tuple[str, str], Grasp]) -> Grasp:
     """The stored generated grasp of ``g``'s id and frame (its pose and validation result) if its pose is
     ``g``'s within :data:`POSE_TOLERANCE`, else ``g``."""
     old = checked.get((g.id, g.frame))
-    same = old is not None and max(np.abs(np.subtract(old.pos, g.pos)).max(),
-                                   np.abs(np.subtract(old.quat, g.quat)).max()) <= POSE_TOLERANCE
-    return old if same else g  # type: ignore[return-value]
+    if old is not None and max(np.abs(np.subtract(old.pos, g.pos)).max(),
+                               np.abs(np.subtract(old.quat, g.quat)).max()) <= POSE_TOLERANCE:
+        return old
+    return g
 
 
 @contextlib.contextmanager

@@ -124,13 +124,18 @@ def panda_xml_path() -> Path:
     )
 
 
+def _mesh_dir(spec: mujoco.MjSpec, xml: Path) -> Path:
+    """The folder the spec's mesh files are read from."""
+    return Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
+
+
 def _decimate_visuals(spec: mujoco.MjSpec, xml: Path, ratio: float, far_lod: float) -> None:
     """Swap meshes used only by non-colliding geoms for cached decimations (inline vertices/faces) and move
     their geoms to ``NEAR_LOD_GROUP``; with ``far_lod`` > 0 give each a massless copy in ``FAR_LOD_GROUP``
     decimated to ``far_lod``. The links' explicit inertials make visual geoms irrelevant to physics."""
     collision_meshes = {g.meshname for g in spec.geoms if g.meshname and (g.contype or g.conaffinity)}
     visual_meshes = {g.meshname for g in spec.geoms if g.meshname} - collision_meshes
-    meshdir = Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
+    meshdir = _mesh_dir(spec, xml)
     far_names: dict[str, str] = {}
     for mesh in list(spec.meshes):
         if mesh.name not in visual_meshes or not mesh.file:
@@ -221,7 +226,7 @@ def _meshes_in_memory(spec: mujoco.MjSpec, xml: Path) -> None:
     """Hand the meshes still read from files to the spec as in-memory assets under their relative names, so
     that the compiled model (stored in every dataset and scenario) names ``panda/link0.stl``, not the path
     of this install: the same inputs give the same bytes wherever mgdata is installed."""
-    meshdir = Path(spec.modelfiledir or xml.parent) / (spec.meshdir or "")
+    meshdir = _mesh_dir(spec, xml)
     assets = dict(spec.assets)
     for mesh in spec.meshes:
         if mesh.file:
