@@ -66,7 +66,7 @@ class CandidateConfig:
     min_side_height: float = 0.055  # m above the object's base: lower side grasps put the wrist on the table
     side_top_clearance: float = 0.015  # m kept between a side grasp and the object's top (rim, lid)
     tip_clearance: float = 0.002  # m kept between a fingertip and the surface below it
-    floor_clearance: float = 0.006  # m kept between a rim pinch's inner fingertip and the vessel's floor
+    floor_clearance: float = 0.009  # m kept between a rim pinch's inner fingertip and the vessel's floor
     rim_angles: int = 8  # rim-pinch directions around a round vessel
     rim_depth: float = 0.012  # m from the rim down to the TCP of a rim pinch
     handle_clear_deg: float = 40.0  # no rim pinch this close (degrees about the axis) to a handle
