@@ -4,8 +4,9 @@ The scene (``recipes/stack.toml``): a ``target`` on the table with ``stack_0`` (
 (top) stacked on it. The motion, as the paper describes it: unstack one object at a time, top first, onto a
 destination pile beside the pack (a top-down grasp shallow enough not to touch the object below, lift until it
 clears everything, carry over the pile, lower it to ``place_gap`` above the pile's top, release, back off),
-then pick the target, lift it, carry it into the goal and hold it there at rest. Nothing in the stack or the
-target may fall or tip past 30° (the spec).
+then pick the target (a box by its top, a tray by a pinch on one wall), lift it, carry it level in a straight
+line into the goal and hold it there at rest. Nothing in the stack or the target may fall or tip past 30° (the
+spec).
 
 The pile's spot is chosen from the live scene when the attempt starts (and checked by the initial-state gate):
 spots on rings around the target ``pile_gap`` and more beyond the pack's footprint, at ``pile_bearings``
@@ -132,8 +133,9 @@ class StackSkeleton(FamilySkeleton):
     def _target() -> PickAndCarry:
         """The target's pick, tagged too: its grasp is chosen among those reachable from where the arm is
         after the unstacking (from its start pose the gate found grasps; IK from above the pile may not reach
-        the same roll)."""
-        return PickAndCarry(TARGET, tag=f"{TARGET}/")
+        the same roll). It is carried level in a straight line: a tray pinched at one end turned 20–27° in the
+        pinch when a free carry set off, level it stays within 3°."""
+        return PickAndCarry(TARGET, tag=f"{TARGET}/", level=True)
 
     def _start_pick(self, ctx: Context, name: str) -> None:
         """A pick starts: judge the one before (multi-grab), then remember where everything is."""

@@ -30,6 +30,7 @@ from mgdata.skeleton.variation import draw_variation
 from mgdata.skeletons.stack import StackSkeleton
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import DROP, place
+from tests.helpers import rawdata
 from tests.helpers.probed import probed_attempt
 
 STACK = ("stack_0", "stack_1", "stack_2")
@@ -184,3 +185,43 @@ def test_a_pick_that_moves_another_object_over_5_cm_is_not_a_success(grasps: Gra
         assert not skeleton.success_extra(ctx)  # ... which stays a failure (nothing moved since)
     finally:
         ex.close()
+
+
+# --- a tray as the target -----------------------------------------------------------------------------------
+class _TrayProbe(JointController):
+    """Measures the target's tilt (deg, from ``xquat``), height (m), how many fingers touch it and how many
+    other bodies do, after every control step."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        m = scene.model
+        self.body = m.body("target").id
+        self.fingers = {m.body(n).id for n in ("left_finger", "right_finger")}
+        self.rows: list[tuple[float, float, int, int]] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        touching = {int(m.geom_bodyid[g]) for c in d.contact[:d.ncon] for g in (c.geom1, c.geom2)
+                    if self.body in (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))}
+        self.rows.append((_tilt_deg(d, self.body), float(d.xpos[self.body][2]), len(touching & self.fingers),
+                          len(touching - self.fingers - {self.body})))
+        self.centre = rawdata.box_centre(m, d, self.body)
+
+
+def test_a_tray_target_is_pinched_on_its_wall_and_carried_level_into_the_goal(grasps: GraspDB) -> None:
+    """Task 15: tray/flat_00 pinched at its short end (a free carry turned it 20° in the pinch)."""
+    recipe = load_family_recipe("stack")
+    task = base_task(recipe, 15)
+    assert task.object("target").model.startswith("tray/")
+    result, _, meta, probe = probed_attempt(task, recipe, grasps, StackSkeleton(), _TrayProbe)
+    assert result.kept and meta.kept, (result.stage, result.reason)
+    assert result.grasp_id.startswith("rim_")
+    z0 = probe.rows[0][1]
+    lifted = [row for row in probe.rows if row[1] > z0 + 0.02]
+    assert len(lifted) > 50  # lifted 2 cm clear of the table for the carry and the hold
+    assert all(fingers >= 1 and others == 0 for _, _, fingers, others in lifted)  # only the hand holds it
+    assert sum(fingers == 2 for _, _, fingers, _ in lifted) >= 0.9 * len(lifted)  # in the pinch
+    assert all(fingers == 2 for _, _, fingers, _ in lifted[-recipe.tasks.hold_steps:])
+    assert max(tilt for tilt, _, _, _ in lifted) <= 10.0  # level (the issue's bound), from raw xquat
+    assert np.linalg.norm(probe.centre - np.asarray(task.goal.pos)) < task.goal.radius  # its box centre
