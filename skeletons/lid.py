@@ -134,10 +134,15 @@ class LidSkeleton(FamilySkeleton):
 
     def _over_container(self, ctx: Context, tcp_t_lid: Pose, up: float) -> Pose | None:
         """TCP pose holding the lid level on the container's axis, ``up`` m above its seat, turned about the
-        vertical by the first of ``carry_yaws_deg`` the arm reaches (the lid is round)."""
+        vertical by the first of ``carry_yaws_deg`` the arm reaches (a round lid), or as the container is
+        turned, the nearer of the two ways round first (a rectangular lid: a lunchbox's)."""
         rng, base = ctx.variation.rng("lid_yaw"), yaw_of(ctx.object_pose(LID))
-        turns = (self._lid_over(ctx, tcp_t_lid, up, base + math.radians(turn))
-                 for turn in ctx.param("carry_yaws_deg"))
+        if "half_extents" in ctx.scene.object_model(LID).geometry:  # a rectangular lid: the container's turn
+            cont = yaw_of(ctx.object_pose(CONTAINER))
+            yaws = sorted((cont, cont + math.pi), key=lambda y: abs(math.remainder(y - base, 2 * math.pi)))
+        else:
+            yaws = [base + math.radians(turn) for turn in ctx.param("carry_yaws_deg")]
+        turns = (self._lid_over(ctx, tcp_t_lid, up, yaw) for yaw in yaws)
         return first_reachable(turns, lambda target: ctx.planner.ik(target, ctx.q_cmd, rng)).found
 
     @staticmethod

@@ -6,7 +6,9 @@
   object's axis horizontally from ``angles`` directions, fingers closing horizontally, at the model's
   ``grasp_height`` (or mid-height) raised to ``min_side_height`` (the wrist clears the table) but kept
   ``side_top_clearance`` below the top; the TCP sits on the axis unless the palm would touch the object, in
-  which case it backs off. Two rolls per direction (fingers swapped), which reach differently.
+  which case it backs off. Two rolls per direction (fingers swapped), which reach differently. A box-shaped
+  vessel (``half_extents`` and ``wall``) whose narrow side fits the hand (a lunchbox) is grasped the same way
+  from both ends of its long axis (``end_p``, ``end_n``), fingers across the narrow side.
 * **rim** (open vessels with a ``wall`` too wide for a side grasp: bowls, mugs, teacups, tubs, trays): a
   pinch of the wall from above. The gripper points straight down over the middle of the wall, fingers
   closing radially (round vessels, ``rim_angles`` directions, none within ``handle_clear_deg`` of a handle)
@@ -113,10 +115,13 @@ def _side_radius(model: ObjectModel, height: float) -> float | None:
 
 
 def side_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
-    """Horizontal grasps around a round object's axis (empty if it is too wide for the hand)."""
+    """Horizontal grasps around a round object's axis, or from both ends of a narrow box-shaped vessel
+    (empty if it is too wide for the hand)."""
     geo = model.geometry
     top = float(geo.get("height", model.size[2])) - cfg.side_top_clearance
     height = min(max(float(geo.get("grasp_height", model.size[2] / 2.0)), cfg.min_side_height), top)
+    if "half_extents" in geo and "wall" in geo:
+        return _end_grasps(model, height, cfg)
     radius = _side_radius(model, height)
     if radius is None or 2.0 * radius + cfg.finger_clearance > MAX_OPENING:
         return []
@@ -128,6 +133,24 @@ def side_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
         closing = np.array([-math.sin(phi), math.cos(phi), 0.0])
         pos = side * back + np.array([0.0, 0.0, height])
         out += _two_rolls(f"side_{round(math.degrees(phi)):03d}", pos, -side, closing)
+    return out
+
+
+def _end_grasps(model: ObjectModel, height: float, cfg: CandidateConfig) -> list[Grasp]:
+    """A box-shaped vessel whose narrow side fits the hand (a lunchbox): from each end of its long axis,
+    horizontally, fingers closing across the narrow side at ``height``, the palm ``palm_clearance`` off the
+    end wall (its lid's skirt stays above the fingers)."""
+    hx, hy, _ = (float(v) for v in model.geometry["half_extents"])
+    long_axis, half_long, half_narrow = (np.array([1.0, 0.0, 0.0]), hx, hy) if hx >= hy else \
+        (np.array([0.0, 1.0, 0.0]), hy, hx)
+    if 2.0 * half_narrow + cfg.finger_clearance > MAX_OPENING:
+        return []
+    closing = np.cross(np.array([0.0, 0.0, 1.0]), long_axis)
+    inset = half_long + cfg.palm_clearance - PALM_DEPTH  # the TCP's distance from the centre
+    out = []
+    for name, sign in (("end_p", 1.0), ("end_n", -1.0)):
+        side = sign * long_axis  # where the gripper sits
+        out += _two_rolls(name, side * inset + np.array([0.0, 0.0, height]), -side, closing)
     return out
 
 

@@ -57,6 +57,8 @@ def _kinds() -> tuple[Kind, ...]:
         Kind("bottle", "round", 16, build_bottle),
         Kind("container", "tub", 12, build_container),
         Kind("lid", "tub", 12, build_lid),
+        Kind("container", "lunchbox", 8, build_container),
+        Kind("lid", "lunchbox", 8, build_lid),
         Kind("container", "canister", 8, build_canister),
         Kind("lid", "canister", 8, build_canister_lid),
         Kind("container", "bottle", 8, build_capped_bottle),
