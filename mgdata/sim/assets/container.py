@@ -9,8 +9,9 @@ top-down grasp; its origin is the bottom of the skirt, so placing the lid at the
 (a hand cannot close across one); lunchboxes are 5.4–6 cm wide, 14–18 cm long and 10–11.5 cm tall (the
 paper's ~18 cm tupperware, narrow enough to be carried capped by a side grasp under the skirt).
 ``geometry``: container ``half_extents`` (outer x, y, height/2), ``wall``, ``bottom``, ``seat_height``,
-``grasp_height`` (a side grasp's, under the skirt); lid ``half_extents``, ``skirt``, ``knob_height``,
-``thickness``, ``plug_depth`` (how far the lid drops over the container when it seats: its skirt).
+``grasp_height`` (a side grasp's, under the skirt), ``kind`` (``tub``, ``lunchbox``); lid ``half_extents``,
+``skirt``, ``knob_height``, ``thickness``, ``plug_depth`` (how far the lid drops over the container when it
+seats: its skirt), ``kind`` (``skirt``).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ def build_container(name: str, seed: int, rng: np.random.Generator) -> ObjectMod
         size=(2 * d["hx"], 2 * d["hy"], d["h"]), mass=d["mass"], friction=0.8, rgba=PLASTIC[int(d["colour"])],
         geometry={"half_extents": (d["hx"], d["hy"], d["h"] / 2), "wall": WALL, "bottom": BOTTOM,
                   "seat_height": d["h"] - SKIRT, "grasp_height": d["h"] - SKIRT - UNDER_SKIRT,
-                  "lid": name.replace("container/", "lid/", 1)},
+                  "lid": name.replace("container/", "lid/", 1), "kind": _stem(name)},
         geoms=with_masses(geoms, d["mass"]),
         cavity=Cavity("box", floor_z=BOTTOM, rim_z=d["h"], half_x=d["hx"] - WALL, half_y=d["hy"] - WALL),
     )
@@ -80,7 +81,7 @@ def build_lid(name: str, seed: int, rng: np.random.Generator) -> ObjectModel:
         rgba=LID[int(d["colour"]) % len(LID)],
         geometry={"half_extents": (hx + WALL / 2, hy + WALL / 2, height / 2), "skirt": SKIRT,
                   "plug_depth": SKIRT, "thickness": LID_T, "knob_height": 2 * knob[2],
-                  "container": name.replace("lid/", "container/")},
+                  "container": name.replace("lid/", "container/"), "kind": "skirt"},
         geoms=with_masses(geoms, d["lid_mass"]),
     )
 
