@@ -22,13 +22,15 @@
   table where the handle is low (teacups).
 * **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent plus
   ``top_clearance`` fits between the fingers: boxes, sponges, bottles): straight down at the bounding box's
-  centre line, ``top_depth`` below the top, closing across the narrow side; two rolls.
+  centre line, ``top_depth`` below the top, closing across the narrow side, and (not round ones)
+  ``pose_offset`` of the long side off the middle both ways along it (``top_p``, ``top_n``); two rolls each.
 * **knob** (a model with a root geom named ``knob``, a box or a cylinder: tub and canister lids, caps):
   straight down on the knob, closing along X and along Y, two rolls each, the fingertips ``tip_clearance``
   above the surface the knob stands on.
 * **drawer handle** (a slide articulation with ``handle_pos`` and ``handle_axis``: cabinets): from the
   front, fingers closing across the bar, **expressed in the drawer's frame** (``Grasp.frame``), so the
-  grasp moves with the drawer; two rolls.
+  grasp moves with the drawer; at the bar's middle and ``pose_offset`` of its ``handle_length`` off it both
+  ways (``handle_p``, ``handle_n``); two rolls each.
 
 Objects none of these fit (a chopping board lying flat: 16–20 cm wide, 1.5 cm thick) get no candidates.
 
@@ -75,6 +77,7 @@ class CandidateConfig:
     rim_follow_wall_deg: float = 8.0  # a handleless round vessel's wall sloping more: pinch along it
     rim_follow_max_deg: float = 45.0  # ... up to this; a steeper one (a plate's 71-78° rim) gets no rim pinch
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
+    pose_offset: float = 0.25  # top and drawer-handle grasps also this fraction of the length off the middle
 
 
 def _quat(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
@@ -233,8 +236,14 @@ def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     if narrow + cfg.top_clearance > MAX_OPENING:
         return []
     close_along = np.array([1.0, 0.0, 0.0]) if sx <= sy else np.array([0.0, 1.0, 0.0])
+    long_along = np.array([0.0, 1.0, 0.0]) if sx <= sy else np.array([1.0, 0.0, 0.0])
     pos = np.array([0.0, 0.0, max(sz - cfg.top_depth, sz / 2.0)])
-    return _two_rolls("top", pos, DOWN, close_along)
+    out = _two_rolls("top", pos, DOWN, close_along)
+    if _side_radius(model, pos[2]) is not None:
+        return out  # round (a bottle): the middle only
+    shift = long_along * cfg.pose_offset * max(sx, sy)
+    return [*out, *_two_rolls("top_p", pos + shift, DOWN, close_along),
+            *_two_rolls("top_n", pos - shift, DOWN, close_along)]
 
 
 def knob_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
@@ -265,8 +274,13 @@ def drawer_handle_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp
     to_link = rot.reshape(3, 3).T  # root frame -> link frame (the joint is closed in the model's pose)
     pos = to_link @ (np.asarray(geo["handle_pos"], dtype=float) - np.asarray(link.pos, dtype=float))
     approach = to_link @ np.array([-1.0, 0.0, 0.0])
-    closing = np.cross(to_link @ np.asarray(geo["handle_axis"], dtype=float), approach)
-    return _two_rolls("handle", pos, approach, closing / np.linalg.norm(closing), frame=link.name)
+    axis = to_link @ np.asarray(geo["handle_axis"], dtype=float)
+    closing = np.cross(axis, approach)
+    closing /= np.linalg.norm(closing)
+    shift = axis * cfg.pose_offset * float(geo.get("handle_length", 0.0))
+    return [*_two_rolls("handle", pos, approach, closing, frame=link.name),
+            *_two_rolls("handle_p", pos + shift, approach, closing, frame=link.name),
+            *_two_rolls("handle_n", pos - shift, approach, closing, frame=link.name)]
 
 
 GENERATORS = (side_grasps, rim_grasps, handle_grasps, top_grasps, knob_grasps, drawer_handle_grasps)

@@ -139,7 +139,8 @@ def test_boards_and_plates_lying_flat_get_no_candidates() -> None:
 def test_drawer_handle_grasp_is_in_the_drawer_frame_and_moves_with_it() -> None:
     model = "cabinet/drawer_02"
     grasps = candidates(get_model(model), CandidateConfig())
-    assert [g.id for g in grasps] == ["handle_r0", "handle_r1"] and all(g.frame == "drawer" for g in grasps)
+    assert [g.id for g in grasps] == ["handle_r0", "handle_r1", "handle_p_r0", "handle_p_r1", "handle_n_r0",
+                                      "handle_n_r1"] and all(g.frame == "drawer" for g in grasps)
     g = grasps[0]
     scene = _scene(model, g)
     m, d = scene.model, scene.data
@@ -159,3 +160,10 @@ def test_drawer_handle_grasp_is_in_the_drawer_frame_and_moves_with_it() -> None:
     assert np.allclose(after[:3, 3] - before[:3, 3], 0.12 * slide, atol=1e-9)
     assert np.allclose(after[:3, 3], d.geom_xpos[handle], atol=1e-9)
     assert np.allclose(after[:3, :3], before[:3, :3], atol=1e-12)
+    # the other poses: on the bar's axis, a quarter of the bar's length (raw geom size) off its middle
+    half = m.geom_size[handle][1]
+    offs = [g.world_matrix(m, d, "object")[:3, 3] - d.geom_xpos[handle] for g in (grasps[2], grasps[4])]
+    for off in offs:
+        assert abs(abs(off @ bar_axis) - 0.25 * 2.0 * half) < 1e-6
+        assert np.linalg.norm(np.cross(off, bar_axis)) < 1e-6
+    assert np.allclose(offs[0], -offs[1], atol=1e-9)  # one each way
