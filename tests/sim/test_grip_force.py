@@ -61,6 +61,7 @@ GRIPS = [  # one graspable object per category, by a grasp the check found valid
     pytest.param("container/bottle_00", "side_000_r1", marks=pytest.mark.slow),
     pytest.param("tray/flat_00", "rim_px_r0", marks=pytest.mark.slow),  # 24 x 16 cm, held by one side
     pytest.param("bowl/round_05", "wall_000_r0", marks=pytest.mark.slow),  # along its wall (vertical: 18°)
+    pytest.param("container/lunchbox_00", "end_p_r1", marks=pytest.mark.slow),  # 15 cm long, held by one end
 ]
 
 
