@@ -193,10 +193,12 @@ def test_a_relocated_bottle_stands_clear_of_the_arm_while_the_drawer_moves(grasp
 
 
 def test_a_relocated_bottle_is_carried_upright(grasps: GraspDB) -> None:
-    """Task 12, draw 1: a free joint-space carry to the put-down spot tipped the side-grasped bottle past 45°
-    (unsafe at step 160); the straight carry keeps it upright (raw tilt from ``xmat``)."""
+    """A free joint-space carry to the put-down spot once tipped a side-grasped bottle past 45° (task 12, draw
+    1, with the grasp DB before drawer handles had three poses: unsafe at step 160); the straight carry keeps
+    it upright (raw tilt from ``xmat``). Task 4, draw 1: the bottle is in the drawer's way and is moved."""
     recipe = load_family_recipe("cabinet")
-    task = base_task(recipe, 12)
+    task = base_task(recipe, 4)
+    assert "obstacle" in task.gate["in_the_way"]
     result, _, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _Probe, draw=1)
     assert result.kept, (result.stage, result.segment, result.reason)
     assert any(probe.robot_touch) and max(probe.tilt) < 10.0, max(probe.tilt)
@@ -242,12 +244,12 @@ def test_task_28_has_a_location_variant_that_passes_the_gate(grasps: GraspDB) ->
     ``reach.handle``. The unit had moved away from the cabinet, so the nearest pre-grasp solution (which the
     bottle had vetoed in the base task) was accepted and then rejected for lying 0.10 rad from joint 2's
     limit, with a roomy solution available. Now the pre-grasp IK looks on for one keeping ``grasp_margin``:
-    the first proposal passes, with the base task's handle grasp."""
+    the first proposal passes, with the base task's handle grasps (and, the unit moved, maybe more)."""
     recipe = load_family_recipe("cabinet")
     base = base_task(recipe, 28)
     task, provenance, report = variant(recipe, base, "location", grasps)
     assert report["passed"] and report["attempts"] == 1 and provenance["kind"] == "location"
-    assert task.gate["handle_grasps"] == base.gate["handle_grasps"]
+    assert set(base.gate["handle_grasps"]) <= set(task.gate["handle_grasps"])
     moved = {o.name: np.subtract(o.pos, base.object(o.name).pos)[:2] for o in task.objects}
     assert np.linalg.norm(moved["target"]) > 0.1 and np.allclose(moved["cabinet"], 0.0)
 
