@@ -294,8 +294,7 @@ class _CarryProbe(JointController):
         super().step()
         m, d = self.scene.model, self.scene.data
         rot = d.xmat[self.box].reshape(3, 3)
-        touching = {int(m.geom_bodyid[g]) for c in d.contact[:d.ncon] for g in (c.geom1, c.geom2)
-                    if self.box in (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))}
+        touching = rawdata.touching(m, d, self.box)
         self.rows.append((rot.T @ (d.xpos[self.lid] - d.xpos[self.box]), float(np.degrees(np.arccos(
             np.clip(rot[2, 2], -1.0, 1.0)))), touching))
         self.centre = rawdata.box_centre(m, d, self.box)

@@ -202,10 +202,9 @@ class _TrayProbe(JointController):
     def step(self) -> None:
         super().step()
         m, d = self.scene.model, self.scene.data
-        touching = {int(m.geom_bodyid[g]) for c in d.contact[:d.ncon] for g in (c.geom1, c.geom2)
-                    if self.body in (int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2]))}
+        touching = rawdata.touching(m, d, self.body)
         self.rows.append((_tilt_deg(d, self.body), float(d.xpos[self.body][2]), len(touching & self.fingers),
-                          len(touching - self.fingers - {self.body})))
+                          len(touching - self.fingers)))
         self.centre = rawdata.box_centre(m, d, self.body)
 
 

@@ -36,6 +36,12 @@ def frames(root: Path, info: dict, episode: dict, columns: list[str]) -> dict[st
     return {k: [v[i] for i in rows] for k, v in table.items()}
 
 
+def touching(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> set[int]:
+    """The bodies with a MuJoCo contact against ``body`` (its own id not included)."""
+    pairs = ((int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])) for c in d.contact[:d.ncon])
+    return {b for pair in pairs if body in pair for b in pair if b != body}
+
+
 def subtree_geoms(m: mujoco.MjModel, root: int) -> np.ndarray:
     """Geoms of body ``root`` and its direct children (an object and its links)."""
     bodies = [b for b in range(m.nbody) if b == root or m.body_parentid[b] == root]
