@@ -50,6 +50,9 @@ HANDLE = HandleDrive(DRAWER, TOUCH_CABINET, moving=((ROOT_BODY, f"{CABINET}/draw
 """The planner's drawer stays behind while the hand moves the real one: the arm may overlap that copy."""
 BLOCKERS = (OBSTACLE, TARGET)
 """Relocated in this order when in the drawer's way."""
+RELOCATE = {OBSTACLE: Relocate(OBSTACLE, grasp_filter=("side",)), TARGET: Relocate(TARGET)}
+"""How each blocker is moved. The bottle by its body: put down from a pinch at its neck, it can catch under
+its cap on the opening finger and come up with the hand."""
 
 
 @register
@@ -91,7 +94,7 @@ class CabinetSkeleton(FamilySkeleton):
     def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
         segs: list[s.MotionSegment] = []
         for role in self.in_the_way(ctx):
-            segs += Relocate(role).segments(ctx)
+            segs += RELOCATE[role].segments(ctx)
         return [*segs, *self._open(ctx), *self._place(ctx), *self._close(ctx)]
 
     def _open(self, ctx: Context) -> list[s.MotionSegment]:
@@ -134,7 +137,7 @@ class CabinetSkeleton(FamilySkeleton):
             up = ctx.scene.object_model(TARGET).size[2] + ctx.param("rim_clear")
             return raised(ctx.commanded_tcp(), up)
         for role in BLOCKERS:
-            pose = Relocate(role).resolve(name, ctx, lambda role=role: self._spot_target(ctx, role))
+            pose = RELOCATE[role].resolve(name, ctx, lambda role=role: self._spot_target(ctx, role))
             if pose is not None:
                 return pose
         return self.target.resolve(name, ctx) or super().resolve(name, ctx)
@@ -241,7 +244,7 @@ class CabinetSkeleton(FamilySkeleton):
                                              f"grasps of the target are reachable (needs {min_grasps})")
         facts["grasps"] = tuple(g.id for g in targets)
         for role in self.in_the_way(ctx):
-            found = Relocate(role).pick.reachable_grasps(ctx)
+            found = RELOCATE[role].pick.reachable_grasps(ctx)
             if not found:
                 raise Infeasible("reach.blocker", f"the {role} is in the drawer's way and none of its grasps "
                                                   "is reachable")

@@ -102,6 +102,7 @@ class _Probe(JointController):
         self.robot = set(np.flatnonzero(np.isin(m.geom_bodyid, robot_bodies)).tolist())
         self.mine = set(np.flatnonzero(m.geom_bodyid == self.obstacle).tolist())
         self.tilt: list[float] = []
+        self.z: list[float] = []  # the obstacle's origin height (m; the table top is at 0)
         self.q: list[float] = []
         self.drawer_touch: list[bool] = []
         self.robot_touch: list[bool] = []
@@ -115,6 +116,7 @@ class _Probe(JointController):
         super().step()
         d = self.scene.data
         self.tilt.append(float(np.degrees(np.arccos(np.clip(d.xmat[self.obstacle][8], -1.0, 1.0)))))
+        self.z.append(float(d.xpos[self.obstacle][2]))
         self.q.append(float(d.qpos[self.q_adr]))
         self.drawer_touch.append(self._touch(self.drawer))
         self.robot_touch.append(self._touch(self.robot))
@@ -203,6 +205,27 @@ def test_a_relocated_bottle_is_carried_upright(grasps: GraspDB) -> None:
     assert result.kept, (result.stage, result.segment, result.reason)
     assert any(probe.robot_touch) and max(probe.tilt) < 10.0, max(probe.tilt)
     assert result.t_violation["obstacle_stays_upright"] is None
+
+
+def test_a_relocated_bottle_is_put_down_from_its_body_and_stays_down(grasps: GraspDB) -> None:
+    """Task 19, draw 1: the bottle was put down from a pinch at its neck; as the fingers opened it slid 2 cm
+    with one of them, and the rising hand lifted it 9 cm by its cap (``plan_fail``: the next motion started
+    in contact with it). The obstacle is now moved by side grasps only (the gate's fact names no other), and
+    from raw MuJoCo: once released, the bottle stands on the table (origin within 2 mm of its top, tilt under
+    5°) and the robot stays clear of it."""
+    recipe = load_family_recipe("cabinet")
+    task = base_task(recipe, 19)
+    assert "obstacle" in task.gate["in_the_way"]
+    ids = task.gate["obstacle/grasps"]
+    side = {g.id for g in grasps.grasps(task.object("obstacle").model) if g.approach == "side"}
+    assert ids and set(ids) <= side, ids
+    result, frames, _, probe = probed_attempt(task, recipe, grasps, CabinetSkeleton(), _GapProbe, draw=1)
+    assert result.kept, (result.stage, result.segment, result.reason)
+    released = max(t for t, touch in enumerate(probe.robot_touch) if touch)
+    assert released < len(frames) // 3
+    assert min(probe.gap[released + 20:]) > 0.0, min(probe.gap[released + 20:])
+    assert max(probe.tilt[released:]) < 5.0
+    assert max(abs(z) for z in probe.z[released:]) < 0.002, max(probe.z[released:])
 
 
 def _bottle_on_the_handles_axis(task, out: float):  # type: ignore[no-untyped-def]

@@ -273,7 +273,8 @@ class PickAndCarry:
                 ctx.memo[key] = self.reachable_grasps(ctx)
             return ctx.memo[key]
 
-        return usable_grasps(ctx, self.obj, f"{self.tag}grasps", now)
+        usable = usable_grasps(ctx, self.obj, f"{self.tag}grasps", now)
+        return tuple(g for g in usable if not self.grasp_filter or g.approach in self.grasp_filter)
 
     def _grasp_pose(self, ctx: Context) -> Pose:
         grasp: Grasp = ctx.memo[self.name("grasp")]

@@ -24,14 +24,16 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Relocate:
-    """Move ``obj`` out of the way (see the module docstring)."""
+    """Move ``obj`` out of the way (see the module docstring); ``grasp_filter``: the approach hints its pick
+    may use (empty: any)."""
 
     obj: str
+    grasp_filter: tuple[str, ...] = ()
 
     @property
     def pick(self) -> PickAndCarry:
         """The tagged pick of ``obj`` (gate fact ``obj/grasps``)."""
-        return PickAndCarry(self.obj, tag=f"{self.obj}/")
+        return PickAndCarry(self.obj, tag=f"{self.obj}/", grasp_filter=self.grasp_filter)
 
     def segments(self, ctx: Context) -> list[s.MotionSegment]:
         """Pick (``open_steps`` …), carry straight above the spot (``carry_speed``), lower, release
