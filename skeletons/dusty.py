@@ -2,7 +2,8 @@
 
 The paper's "five-phase wipe-then-pour routine", on a table holding a sponge, a destination tray whose floor
 carries a dust patch (``dust``, lying on ``dest``: the specks move with it and only a sponge touching it
-wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a food item (``food``) inside:
+wipes them, :mod:`mgdata.sim.particles`) and a source (``source``: a bowl, or a smaller tray) with a food
+item (``food``) inside:
 
 1. **Pick the sponge** (its DB top grasp, raised by ``sponge_grasp_raise``): pre-grasp, approach, close,
    lift above the tray's rim.
@@ -15,14 +16,16 @@ wipes them, :mod:`mgdata.sim.particles`) and a source bowl (``source``) with a f
 3. **Put the sponge back** where it was picked up, release, retreat.
 4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
    pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
-   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on the bowl's far side
+   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on the source's far side
    (:meth:`CarrierPick.far_side`), round-robin over the reachable ones; lift clear of everything.
-5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the bowl (joint-space, ``carry_speed``)
-   to the pour stance, then tilt it in ``pour_steps`` turns about a horizontal axis through the TCP, its far
-   side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg`` past where the food slides out; the
-   mouth over the tray, the bowl's outline ``pour_clearance`` above the rim, every step reachable); hold
-   while the food falls and settles (the gate: food inside the tray, tray clean, upright and not moved, at
-   rest).
+5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the source (``carry_speed``; a bowl in
+   joint space, a tray level in a straight line) to the pour stance, then tilt it in ``pour_steps`` turns
+   about a horizontal axis, its far side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg``
+   past where the food slides out; its outline ``pour_clearance`` above the rim, every step reachable): a
+   bowl about the TCP, its mouth over the tray; a tray about its far wall's top edge, held over the tray
+   (the food slides down the tray and over that edge, the wall climbed only past 90° + the friction angle).
+   Hold while the food falls and settles (the gate: food inside the tray, tray clean, upright and not
+   moved, at rest).
 
 The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
 pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.

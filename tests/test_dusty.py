@@ -13,7 +13,9 @@ the predicates:
 * pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
   enters the tray's cavity, with dust still on it.
 * a previously failing pour (task 25 draw 0: no stance over the rim opposite the hand was reachable) is now
-  kept, and the candy ends inside the tray's bounding box at rest.
+  kept, and the candy ends inside the tray's bounding box at rest;
+* a tray as the source (task 12): carried level, turned about its far edge over the destination, the food
+  leaving it above the destination's cavity and ending inside it at rest.
 """
 
 from __future__ import annotations
@@ -253,7 +255,8 @@ def test_the_pour_tilts_past_where_the_food_leaves_the_bowl(recipe: Recipe) -> N
 
 class _EndProbe(JointController):
     """After every control step, from raw MuJoCo: the food's box centre in the tray's frame, whether it is
-    inside the tray's own bounding box (from its geoms), and the bowl's tilt from the vertical (deg)."""
+    inside the tray's own bounding box (from its geoms; ``dest_box``, in its frame), and the source's tilt
+    from the vertical (deg)."""
 
     def __init__(self, scene: Scene) -> None:
         super().__init__(scene)
@@ -266,6 +269,7 @@ class _EndProbe(JointController):
         m, d = self.scene.model, self.scene.data
         tray, bowl = m.body("dest").id, m.body("source").id
         lo, hi = rawdata.local_box(m, d, tray)
+        self.dest_box = (lo, hi)
         local = (rawdata.box_centre(m, d, m.body("food").id) - d.xpos[tray]) @ d.xmat[tray].reshape(3, 3)
         self.food_local.append(local)
         self.inside.append(bool(np.all((local >= lo) & (local <= hi))))
@@ -291,3 +295,51 @@ def test_a_pour_out_of_reach_over_the_opposite_rim_still_lands_in_the_tray(recip
     end = np.array(probe.food_local[-hold:])
     assert float(np.max(np.linalg.norm(np.diff(end, axis=0), axis=1))) * 20.0 < 0.01, "and at rest"
     assert not probe.inside[0], "it started outside, in the bowl"
+
+
+class _TrayProbe(_EndProbe):
+    """:class:`_EndProbe` plus, after every control step, the source's horizontal position and whether the
+    food's box centre is inside the source's own bounding box."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.source_xy: list[np.ndarray] = []
+        self.food_in_source: list[bool] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        src = m.body("source").id
+        lo, hi = rawdata.local_box(m, d, src)
+        food = rawdata.box_centre(m, d, m.body("food").id)
+        local = (food - d.xpos[src]) @ d.xmat[src].reshape(3, 3)
+        self.source_xy.append(d.xpos[src][:2].copy())
+        self.food_in_source.append(bool(np.all((local >= lo) & (local <= hi))))
+
+
+TRAY_SOURCE = 12  # one of the base tasks whose source is a tray (12, 13, 15, 18, 21)
+
+
+def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(recipe: Recipe,
+                                                                              grasps: GraspDB) -> None:
+    """The paper's dusty source, a tray (task 12): from raw MuJoCo data it is carried level (under 10° from
+    the vertical until it has moved 30 cm across the table; a joint-space carry had tipped it 30°), then
+    turned past the food's sliding tilt about its far edge held over the destination, so that the food
+    leaves it above the destination's cavity (its centre inside the destination's bounding box in the
+    horizontal) and ends inside it, at rest."""
+    task = base_task(recipe, TRAY_SOURCE)
+    assert task.object("source").model.startswith("tray/")
+    result, _, _, probe = probed_attempt(task, recipe, grasps, DustySkeleton(), _TrayProbe)
+    assert result.kept, (result.stage, result.segment, result.reason)
+    start = probe.source_xy[0]
+    tipped = next(t for t, tilt in enumerate(probe.bowl_tilt) if tilt > 10.0)
+    assert np.linalg.norm(probe.source_xy[tipped] - start) > 0.30, "carried level across the table"
+    assert max(probe.bowl_tilt) > 120.0
+    left = next(t for t in range(tipped, len(probe.food_in_source)) if not probe.food_in_source[t])
+    lo, hi = probe.dest_box
+    at = probe.food_local[left]
+    assert np.all(at[:2] >= lo[:2]) and np.all(at[:2] <= hi[:2]), (at, lo, hi)
+    hold = int(recipe.tasks.hold_steps)
+    assert all(probe.inside[-hold:]), "the candy ends inside the tray"
+    end = np.array(probe.food_local[-hold:])
+    assert float(np.max(np.linalg.norm(np.diff(end, axis=0), axis=1))) * 20.0 < 0.01, "and at rest"
