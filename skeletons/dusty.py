@@ -2,8 +2,8 @@
 
 The paper's "five-phase wipe-then-pour routine", on a table holding a sponge, a destination tray whose floor
 carries a dust patch (``dust``, lying on ``dest``: the specks move with it and only a sponge touching it
-wipes them, :mod:`mgdata.sim.particles`) and a source (``source``: a bowl, or a smaller tray) with a food
-item (``food``) inside:
+wipes them, :mod:`mgdata.sim.particles`) and a source (``source``: a bowl; a tray in a recipe that draws
+one, docs/families.md) with a food item (``food``) inside:
 
 1. **Pick the sponge** (its DB top grasp, raised by ``sponge_grasp_raise``): pre-grasp, approach, close,
    lift above the tray's rim.

@@ -21,6 +21,7 @@ the predicates:
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -37,7 +38,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeletons.dusty import DustySkeleton
-from mgdata.tasks.recipe import Recipe
+from mgdata.tasks.recipe import Recipe, recipe_path
 from tests.helpers import rawdata
 from tests.helpers.probed import probed_attempt
 
@@ -317,18 +318,46 @@ class _TrayProbe(_EndProbe):
         self.food_in_source.append(bool(np.all((local >= lo) & (local <= hi))))
 
 
-TRAY_SOURCE = 12  # one of the base tasks whose source is a tray (12, 13, 15, 18, 21)
+TRAY_SOURCE = 12  # one of the base tasks whose source is a tray (12, 13, 15, 18, 21) in the variant below
+TRAY_VARIANT = (  # recipes/dusty.toml with serving trays among the sources (docs/families.md)
+    ('models = ["tray/*"]', 'models = ["tray/flat_00", "tray/flat_01", "tray/flat_02", "tray/flat_04", '
+                            '"tray/flat_06"]'),
+    ('models = ["bowl/round_00", "bowl/round_01", "bowl/round_05"]',
+     'models = ["bowl/round_00", "bowl/round_01", "bowl/round_05", "tray/flat_03", "tray/flat_05", '
+     '"tray/flat_07"]'),
+    ('region = { x = [0.50, 0.60], y = [-0.28, -0.16] }\nyaw = { rule = "uniform" }',
+     'region = { x = [0.48, 0.56], y = [-0.32, -0.26] }\n'
+     'yaw = { rule = "fixed", deg = 90.0, jitter_deg = 15.0 }'),
+    ('candy = "piece of candy"\n', 'candy = "piece of candy"\n"tray/flat_03" = "serving tray"\n'
+                                   '"tray/flat_05" = "serving tray"\n"tray/flat_07" = "serving tray"\n'),
+    ("pour_steps = 4\n", "pour_steps = 8\n"),
+    ("pour_hold_steps = 160\n", "pour_hold_steps = 160\npour_lifts = [0.0, 0.04, 0.08, 0.12]\n"),
+)
 
 
-def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(recipe: Recipe,
+def _tray_variant(tmp: Path) -> Recipe:
+    """The shipped dusty recipe with :data:`TRAY_VARIANT` applied, loaded from ``tmp``."""
+    shipped = recipe_path("dusty")
+    text = shipped.read_text(encoding="utf-8")
+    for old, new in TRAY_VARIANT:
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    text = text.replace('spec = "specs/dusty.toml"', f'spec = "{shipped.parent / "specs" / "dusty.toml"}"')
+    (tmp / "dusty.toml").write_text(text, encoding="utf-8")
+    return load_family_recipe(tmp / "dusty.toml")
+
+
+def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(tmp_path: Path,
                                                                               grasps: GraspDB) -> None:
     """The paper's dusty source, a tray (task 12): from raw MuJoCo data it is carried level (under 10° from
     the vertical until it has moved 30 cm across the table; a joint-space carry had tipped it 30°), then
     turned past the food's sliding tilt about its far edge held over the destination, so that the food
     leaves it above the destination's cavity (its centre inside the destination's bounding box in the
     horizontal) and ends inside it, at rest."""
+    recipe = _tray_variant(tmp_path)
     task = base_task(recipe, TRAY_SOURCE)
     assert task.object("source").model.startswith("tray/")
+    assert "from the serving tray into the tray" in task.prompt
     result, _, _, probe = probed_attempt(task, recipe, grasps, DustySkeleton(), _TrayProbe)
     assert result.kept, (result.stage, result.segment, result.reason)
     start = probe.source_xy[0]

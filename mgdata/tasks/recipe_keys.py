@@ -137,7 +137,7 @@ def _check_names(raw: Mapping[str, Any], known: list[str], where: str, optional:
 
 def _param_value(value: Any, p: Param, at: str) -> Any:
     if p.kind is tuple:
-        items = value if isinstance(value, list) else None
+        items = list(value) if isinstance(value, (list, tuple)) else None  # a tuple: the key's default
         if not items or not all(_is_number(v) for v in items):
             raise RecipeError(f"{at} = {_show(value)}: expected {p.expected} ({p.doc})")
         numbers = tuple(float(v) for v in items)
