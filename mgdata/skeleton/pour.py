@@ -1,5 +1,5 @@
-"""Pouring from a held carrier (a bowl or a tray) into a destination tray: carry it level to the pour stance,
-tilt it in steps, hold while what it carries falls and settles.
+"""Pouring from a held carrier (a bowl or a tray) into a destination tray: carry it to the pour stance, tilt
+it in steps, hold while what it carries falls and settles.
 
 The stance (:meth:`Pour.plan`): the hand turned about the vertical as carried, or so that the grasp's radius
 points away from the robot (or half way), or by ``pour_turns_deg``; the tilt lowers the rim opposite the
@@ -14,10 +14,10 @@ food slides out (:func:`slide_tilt`), else 10° or 20° more. The first stance t
 and whose every step the arm then reaches collision-free, on the carry's branch (:func:`tilt_chain`), is
 taken, its solutions seeding the segments' IK.
 
-Segments: ``carry`` (a straight line to ``pour_start``, the carrier level, only turned about the vertical: a
-joint-space carry tips it, and the food slides off a flat tray), ``pour_0`` … ``pour_{n-1}`` (straight turns
-about the TCP up to ``pour_line_deg``, joint-space beyond), ``pour_settle``. A skeleton declares
-:data:`POUR_KEYS` and the knob :data:`POUR_KNOB`::
+Segments: ``carry`` (to ``pour_start``: a bowl in joint space; a tray in a straight line, level, only turned
+about the vertical, since a joint-space carry tips it and the food slides off), ``pour_0`` …
+``pour_{n-1}`` (straight turns about the TCP up to ``pour_line_deg``, joint-space beyond), ``pour_settle``.
+A skeleton declares :data:`POUR_KEYS` and the knob :data:`POUR_KNOB`::
 
     pour = Pour("source", food="food", dest="dest")
     segs = pour.segments(ctx)
@@ -27,7 +27,7 @@ about the TCP up to ``pour_line_deg``, joint-space beyond), ``pour_settle``. A s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -157,10 +157,10 @@ class Pour:
                 else s.free(name, name, gripper="close", attached=self.carrier, riders=riders, allow=allow,
                             speed=p["pour_speed"])
                 for k, name in enumerate(self.names(ctx)[1:])]
-        carry = (s.linear("carry", "pour_start", orientation="slerp", gripper="close", attached=self.carrier,
-                          riders=(self.food,), speed=p["carry_speed"]) if flat else
-                 s.free("carry", "pour_start", gripper="close", attached=self.carrier, riders=(self.food,),
-                        speed=p["carry_speed"]))
+        carry = s.free("carry", "pour_start", gripper="close", attached=self.carrier, riders=(self.food,),
+                       speed=p["carry_speed"])
+        if flat:
+            carry = replace(carry, kind="linear", orientation="slerp")
         return [carry, *tilt, s.hold("pour_settle", steps=p["pour_hold_steps"], gripper="close")]
 
     def target(self, name: str, ctx: Context) -> Pose:
@@ -217,8 +217,7 @@ class Pour:
         yaws = (0.0, facing, facing / 2) if abs(facing) > math.radians(10.0) else (0.0,)
         yaws += tuple(math.radians(a) for a in ctx.param("pour_turns_deg"))
         betas = (0.0,) if flat else tuple(math.radians(b) for b in ctx.param("pour_axis_turns_deg"))
-        grip = in_tcp.inverse().pos  # the TCP in the carrier's frame: the exit is the opposite wall's top
-        exit_point = np.array([-grip[0], -grip[1], model.size[2]])
+        grip = in_tcp.inverse().pos  # the TCP in the carrier's frame: a tray's exit is the opposite wall
         least = math.degrees(slide_tilt(ctx, self.carrier, self.food)) + ctx.param("pour_slide_margin_deg")
         first = max(ctx.variation[POUR_KNOB.name], least)
         for angle in (math.radians(min(first + d, 150.0)) for d in (0.0, 10.0, 20.0)):
@@ -229,6 +228,7 @@ class Pour:
                 spins = [rotation_about(axis, angle * k / n) for k in range(n + 1)]
                 turns = [r @ level for r in spins]
                 if flat:  # turned about the exit edge, which stays over the aim point
+                    exit_point = np.array([-grip[0], -grip[1], model.size[2]])
                     exit_off = level @ in_tcp.pos + (level @ in_tcp.rotation()) @ exit_point
                     around = corners @ (level @ in_tcp.rotation()).T + level @ in_tcp.pos - exit_off
                     low = min(float(np.min((around @ r.T)[:, 2])) for r in spins)
