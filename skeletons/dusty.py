@@ -16,8 +16,8 @@ one, docs/families.md) with a food item (``food``) inside:
 3. **Put the sponge back** where it was picked up, release, retreat.
 4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
    pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
-   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on the source's far side
-   (:meth:`CarrierPick.far_side`), round-robin over the reachable ones; lift clear of everything.
+   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on a bowl's far side or a tray's
+   near side (:meth:`CarrierPick.far_side`), round-robin over the reachable ones; lift clear of everything.
 5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the source (``carry_speed``; a bowl in
    joint space, a tray level in a straight line) to the pour stance, then tilt it in ``pour_steps`` turns
    about a horizontal axis, its far side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg``
@@ -48,7 +48,7 @@ from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.pick_place import PickPlace
 from mgdata.skeleton.poses import backed_off, raised
-from mgdata.skeleton.pour import POUR_KEYS, POUR_KNOB, Pour
+from mgdata.skeleton.pour import POUR_KEYS, POUR_KNOB, Pour, is_round
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Param, RecipeKeys, register
 from mgdata.skeleton.wipe import WIPE_KEYS, WIPE_KNOB, Wipe
 
@@ -62,7 +62,7 @@ SPONGE = PickPlace("sponge", tag="sponge_", renamed={"pre_grasp": "pre", "grasp_
 @dataclass(frozen=True)
 class CarrierPick(PickAndCarry):
     """Pick-and-carry of the source carrier by grasps that keep the open hand's fingertips away from the
-    food riding in it (:meth:`clear_of_food`) and lie on its far side (:meth:`far_side`)."""
+    food riding in it (:meth:`clear_of_food`) and lie on its pouring side (:meth:`far_side`)."""
 
     food: str = "food"
 
@@ -79,12 +79,17 @@ class CarrierPick(PickAndCarry):
         return down >= math.cos(math.radians(ctx.param("carrier_tilt_max_deg")))
 
     def far_side(self, ctx: Context, grasp: Grasp) -> bool:
-        """Is the grasp on the carrier's far side (its radius within ``pour_side_deg`` of the direction away
-        from the robot)? Tilting the far side's opposite down then turns the hand to point away from the
-        robot, a pose the arm reaches past 90°; from the near side it would have to point back at itself."""
+        """Is the grasp on the carrier's pouring side: a bowl's far side (its radius within ``pour_side_deg``
+        of the direction away from the robot), a tray's near side? Tilting a bowl's opposite rim down turns
+        the hand to point away from the robot, a pose the arm reaches past 90°; from the near side it would
+        have to point back at itself. A tray turns about its far wall's edge with the hand toward the robot
+        (:class:`~mgdata.skeleton.pour.Pour`): held by its near wall it gets there without turning the hand
+        round, which the wrist's range allows only on a flipped shoulder, where the tilt cannot go on."""
         obj = ctx.object_pose(self.obj)
         radial = (obj.matrix() @ grasp.matrix())[:2, 3] - obj.pos[:2]
         away = obj.pos[:2] - ctx.scene.data.xpos[ctx.scene.model.body(ROOT_BODY).id][:2]
+        if not is_round(ctx.scene.object_model(self.obj)):
+            away = -away
         cos = radial @ away / max(np.linalg.norm(radial) * np.linalg.norm(away), 1e-9)
         return bool(cos >= math.cos(math.radians(ctx.param("pour_side_deg"))))
 
