@@ -17,7 +17,8 @@ one, docs/families.md) with a food item (``food``) inside:
 4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
    pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
    ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on a bowl's far side or a tray's
-   near side (:meth:`CarrierPick.far_side`), round-robin over the reachable ones; lift clear of everything.
+   near side in the roll the tilt needs (:meth:`CarrierPick.pouring_side`), round-robin over the reachable
+   ones; lift clear of everything.
 5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the source (``carry_speed``; a bowl in
    joint space, a tray level in a straight line) to the pour stance, then tilt it in ``pour_steps`` turns
    about a horizontal axis, its far side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg``
@@ -62,7 +63,7 @@ SPONGE = PickPlace("sponge", tag="sponge_", renamed={"pre_grasp": "pre", "grasp_
 @dataclass(frozen=True)
 class CarrierPick(PickAndCarry):
     """Pick-and-carry of the source carrier by grasps that keep the open hand's fingertips away from the
-    food riding in it (:meth:`clear_of_food`) and lie on its pouring side (:meth:`far_side`)."""
+    food riding in it (:meth:`clear_of_food`) and lie on its pouring side (:meth:`pouring_side`)."""
 
     food: str = "food"
 
@@ -70,7 +71,7 @@ class CarrierPick(PickAndCarry):
         vertical = tuple(g for g in ctx.grasps.get(self.obj, ()) if self.vertical(ctx, g))
         ctx = replace(ctx, grasps={**ctx.grasps, self.obj: vertical})
         return tuple(g for g in super().reachable_grasps(ctx)
-                     if self.clear_of_food(ctx, g) and self.far_side(ctx, g))
+                     if self.clear_of_food(ctx, g) and self.pouring_side(ctx, g))
 
     def vertical(self, ctx: Context, grasp: Grasp) -> bool:
         """Does the grasp approach within ``carrier_tilt_max_deg`` of straight down (in the carrier's
@@ -78,20 +79,26 @@ class CarrierPick(PickAndCarry):
         down = -float(grasp.matrix()[2, 2])
         return down >= math.cos(math.radians(ctx.param("carrier_tilt_max_deg")))
 
-    def far_side(self, ctx: Context, grasp: Grasp) -> bool:
-        """Is the grasp on the carrier's pouring side: a bowl's far side (its radius within ``pour_side_deg``
-        of the direction away from the robot), a tray's near side? Tilting a bowl's opposite rim down turns
-        the hand to point away from the robot, a pose the arm reaches past 90°; from the near side it would
-        have to point back at itself. A tray turns about its far wall's edge with the hand toward the robot
-        (:class:`~mgdata.skeleton.pour.Pour`): held by its near wall it gets there without turning the hand
-        round, which the wrist's range allows only on a flipped shoulder, where the tilt cannot go on."""
+    def pouring_side(self, ctx: Context, grasp: Grasp) -> bool:
+        """Does the grasp hold the carrier from the side it pours from: a bowl's far side (the grasp's radius
+        within ``pour_side_deg`` of the direction away from the robot), a tray's near side, turned by the
+        hand's roll about its own +x axis? Tilting a bowl's opposite rim down turns the hand to point away
+        from the robot, a pose the arm reaches past 90°; from the near side it would have to point back at
+        itself. A tray turns about its far wall's edge with the hand toward the robot
+        (:class:`~mgdata.skeleton.pour.Pour`): pinched on its far wall, the stance needs the hand turned
+        round, which the wrist's range gives only on a flipped shoulder where the tilt cannot go on; and of
+        the near pinch's two rolls, the arm follows the tilt only with the one turning about the hand's +x
+        (the other's tilt steps lose their IK or jump a joint at every stance: docs/families.md)."""
         obj = ctx.object_pose(self.obj)
-        radial = (obj.matrix() @ grasp.matrix())[:2, 3] - obj.pos[:2]
+        held = obj.matrix() @ grasp.matrix()
+        radial = held[:2, 3] - obj.pos[:2]
         away = obj.pos[:2] - ctx.scene.data.xpos[ctx.scene.model.body(ROOT_BODY).id][:2]
-        if not is_round(ctx.scene.object_model(self.obj)):
-            away = -away
         cos = radial @ away / max(np.linalg.norm(radial) * np.linalg.norm(away), 1e-9)
-        return bool(cos >= math.cos(math.radians(ctx.param("pour_side_deg"))))
+        side = math.cos(math.radians(ctx.param("pour_side_deg")))
+        if is_round(ctx.scene.object_model(self.obj)):
+            return bool(cos >= side)
+        tilt_axis = np.array([radial[1], -radial[0], 0.0])  # radial × up: turning about it lowers the far rim
+        return bool(-cos >= side and tilt_axis @ held[:3, 0] > 0.0)
 
     def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
         """Do both fingertips of the open hand at the grasp stay ``food_clearance`` clear of the food's

@@ -331,6 +331,7 @@ TRAY_VARIANT = (  # recipes/dusty.toml with serving trays among the sources (doc
      'yaw = { rule = "fixed", deg = 90.0, jitter_deg = 15.0 }'),
     ('candy = "piece of candy"\n', 'candy = "piece of candy"\n"tray/flat_03" = "serving tray"\n'
                                    '"tray/flat_05" = "serving tray"\n"tray/flat_07" = "serving tray"\n'),
+    ("min_grasps = 2\n", "min_grasps = 1\n"),  # a tray has one pinch on its near wall in the roll it pours by
     ("pour_steps = 4\n", "pour_steps = 8\n"),
     ("pour_hold_steps = 160\n", "pour_hold_steps = 160\npour_lifts = [0.0, 0.04, 0.08, 0.12]\n"),
 )
@@ -353,8 +354,9 @@ def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(
     """The paper's dusty source, a tray (task 12): from raw MuJoCo data it is carried level (under 10° from
     the vertical until it has moved 30 cm across the table; a joint-space carry had tipped it 30°), then
     turned past the food's sliding tilt about its far edge held over the destination, so that the food
-    leaves it above the destination's cavity (its centre inside the destination's bounding box in the
-    horizontal) and ends inside it, at rest."""
+    leaves it for good above the destination's cavity (its centre inside the destination's bounding box in
+    the horizontal; it may hop out of the source's box and back as the tilt sets off) and ends inside it,
+    at rest."""
     recipe = _tray_variant(tmp_path)
     task = base_task(recipe, TRAY_SOURCE)
     assert task.object("source").model.startswith("tray/")
@@ -365,7 +367,7 @@ def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(
     tipped = next(t for t, tilt in enumerate(probe.bowl_tilt) if tilt > 10.0)
     assert np.linalg.norm(probe.source_xy[tipped] - start) > 0.30, "carried level across the table"
     assert max(probe.bowl_tilt) > 120.0
-    left = next(t for t in range(tipped, len(probe.food_in_source)) if not probe.food_in_source[t])
+    left = max(t for t in range(tipped, len(probe.food_in_source)) if probe.food_in_source[t]) + 1  # for good
     lo, hi = probe.dest_box
     at = probe.food_local[left]
     assert np.all(at[:2] >= lo[:2]) and np.all(at[:2] <= hi[:2]), (at, lo, hi)
@@ -375,13 +377,15 @@ def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(
     assert float(np.max(np.linalg.norm(np.diff(end, axis=0), axis=1))) * 20.0 < 0.01, "and at rest"
 
 
-@pytest.mark.parametrize("task_id", [12, 13])  # a tray pinched on its long wall, and on its short one
+@pytest.mark.parametrize("task_id", [12, 13])  # a tray pinched on either near wall, and on its long one only
 def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(tmp_path: Path, grasps: GraspDB,
                                                             task_id: int) -> None:
     """Every carrier grasp the gate keeps for a tray source puts the TCP between the robot's base and the
-    tray's centre (from raw MuJoCo poses): the tray turns about its far edge with the hand toward the robot,
-    and a pinch on the far wall would need the hand turned round at the stance, which the wrist reaches
-    only on a flipped shoulder where the tilt cannot go on (2 of 10 tray attempts kept, against 5 of 10)."""
+    tray's centre, in the roll whose +x axis (the hand's, from the grasp's frame on the tray's raw MuJoCo
+    pose) is the axis the tilt turns about, radius × up: the tray turns about its far edge with the hand
+    toward the robot. A pinch on the far wall needs the hand turned round at the stance, which the wrist
+    reaches only on a flipped shoulder where the tilt cannot go on; the near pinch's other roll lost its
+    tilt's IK at every stance (docs/families.md)."""
     task = base_task(_tray_variant(tmp_path), task_id)
     model = task.object("source").model
     assert model.startswith("tray/")
@@ -393,7 +397,9 @@ def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(tmp_path: Path, gras
     towards_robot = d.xpos[m.body("base").id][:2] - d.xpos[src][:2]
     by_id = {g.id: g for g in grasps.grasps(model, status="valid")}
     held = task.gate["grasps"]
-    assert len(held) >= 2
+    assert held
     for gid in held:
-        tcp = (frame @ by_id[gid].matrix())[:2, 3] - d.xpos[src][:2]
-        assert tcp @ towards_robot > 0.0, gid
+        tcp = frame @ by_id[gid].matrix()
+        radius = tcp[:2, 3] - d.xpos[src][:2]
+        assert radius @ towards_robot > 0.0, gid
+        assert np.cross([*radius, 0.0], [0.0, 0.0, 1.0]) @ tcp[:3, 0] > 0.0, gid
