@@ -42,7 +42,7 @@ import numpy as np
 
 from mgdata.grasps.db import Grasp
 from mgdata.motion import Pose
-from mgdata.sim.robot import FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
+from mgdata.sim.robot import FINGER_DEPTH, FINGER_HALF_WIDTH, FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
@@ -102,16 +102,22 @@ class CarrierPick(PickAndCarry):
 
     def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
         """Do both fingertips of the open hand at the grasp stay ``food_clearance`` clear of the food's
-        bounding box (horizontally: of its enclosing circle; or above its top)?"""
+        bounding box (horizontally: of its enclosing circle; or above its top)? A fingertip is the finger's
+        footprint near its tip, ``FINGER_HALF_WIDTH`` either side of the closing plane and ``FINGER_DEPTH``
+        back from its pad: the back of the finger inside a bowl is what comes over the food."""
         tcp = ctx.object_pose(self.obj).matrix() @ grasp.matrix()
         food = ctx.object_pose(self.food)
         size = np.asarray(ctx.scene.object_model(self.food).size)
         clear = ctx.param("food_clearance")
         reach = float(np.hypot(size[0], size[1])) / 2 + clear
         top = food.pos[2] + size[2] + clear
+        across, out, _ = tcp[:3, :3].T @ (food.pos - tcp[:3, 3])  # the food's centre in the hand's frame
+        pad = GRIPPER_MAX_OPENING / 2
+        if (tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH)[2] >= top:
+            return True
         for side in (1.0, -1.0):
-            tip = tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH + side * tcp[:3, 1] * GRIPPER_MAX_OPENING / 2
-            if np.hypot(*(tip[:2] - food.pos[:2])) < reach and tip[2] < top:
+            behind = max(pad - side * out, side * out - pad - FINGER_DEPTH, 0.0)
+            if math.hypot(max(abs(across) - FINGER_HALF_WIDTH, 0.0), behind) < reach:
                 return False
         return True
 

@@ -12,8 +12,7 @@ the predicates:
   unsafe (``food_not_touched``) at exactly the first step where a robot geom touches the food;
 * pouring onto the still dusty tray (no wipe): unsafe (``clean_before_pour``) at the step the food's centre
   enters the tray's cavity, with dust still on it.
-* a previously failing pour (task 25 draw 0: no stance over the rim opposite the hand was reachable) is now
-  kept, and the candy ends inside the tray's bounding box at rest;
+* a bowl's pour (task 25) is kept, and the candy ends inside the tray's bounding box at rest;
 * a tray as the source (task 12): carried level, turned about its far edge over the destination, the food
   leaving it above the destination's cavity and ending inside it at rest; it is held by its wall nearer the
   robot (every grasp the gate keeps, from raw poses).
@@ -22,7 +21,6 @@ the predicates:
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -39,7 +37,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeletons.dusty import DustySkeleton
-from mgdata.tasks.recipe import Recipe, recipe_path
+from mgdata.tasks.recipe import Recipe
 from tests.helpers import rawdata
 from tests.helpers.probed import probed_attempt
 
@@ -278,18 +276,16 @@ class _EndProbe(JointController):
         self.bowl_tilt.append(math.degrees(math.acos(np.clip(d.xmat[bowl].reshape(3, 3)[2, 2], -1.0, 1.0))))
 
 
-NEWLY_POURED = 25  # draw 0 found no stance tilting over the rim opposite the hand turned 0°, -5° or -10°
+BOWL_POUR = 25  # a bowl source
 
 
-def test_a_pour_out_of_reach_over_the_opposite_rim_still_lands_in_the_tray(recipe: Recipe,
-                                                                           grasps: GraspDB) -> None:
-    """Task 25's first attempt, out of the arm's reach with the hand turned as carried or towards facing
-    away from the robot and the bowl tilted over the rim opposite the hand, is kept (the hand turned further,
-    or the bowl poured over a rim point 30° round): from raw MuJoCo data the candy starts outside the tray,
-    in the bowl, and ends with its box centre inside the tray's bounding box, at rest over the gate's last
-    frames, the bowl tilted past the static sliding tilt."""
-    result, _, _, probe = probed_attempt(base_task(recipe, NEWLY_POURED), recipe, grasps, DustySkeleton(),
-                                            _EndProbe)
+def test_a_bowl_pour_lands_the_candy_in_the_tray_at_rest(recipe: Recipe, grasps: GraspDB) -> None:
+    """Task 25's first attempt, a bowl poured over the rim opposite the hand, is kept: from raw MuJoCo data
+    the candy starts outside the tray, in the bowl, and ends with its box centre inside the tray's bounding
+    box, at rest over the gate's last frames, the bowl tilted past the static sliding tilt."""
+    task = base_task(recipe, BOWL_POUR)
+    assert task.object("source").model.startswith("bowl/")
+    result, _, _, probe = probed_attempt(task, recipe, grasps, DustySkeleton(), _EndProbe)
     assert result.kept, (result.stage, result.segment, result.reason)
     assert probe.bowl_tilt[-1] > 90.0, probe.bowl_tilt[-1]
     hold = int(recipe.tasks.hold_steps)
@@ -319,37 +315,8 @@ class _TrayProbe(_EndProbe):
         self.food_in_source.append(bool(np.all((local >= lo) & (local <= hi))))
 
 
-TRAY_SOURCE = 12  # one of the base tasks whose source is a tray (12, 13, 15, 18, 21) in the variant below
-TRAY_VARIANT = (  # recipes/dusty.toml with serving trays among the sources (docs/families.md)
-    ('models = ["tray/*"]', 'models = ["tray/flat_00", "tray/flat_01", "tray/flat_02", "tray/flat_04", '
-                            '"tray/flat_06"]'),
-    ('models = ["bowl/round_00", "bowl/round_01", "bowl/round_05"]',
-     'models = ["bowl/round_00", "bowl/round_01", "bowl/round_05", "tray/flat_03", "tray/flat_05", '
-     '"tray/flat_07"]'),
-    ('region = { x = [0.50, 0.60], y = [-0.28, -0.16] }\nyaw = { rule = "uniform" }',
-     'region = { x = [0.48, 0.56], y = [-0.32, -0.26] }\n'
-     'yaw = { rule = "fixed", deg = 90.0, jitter_deg = 15.0 }'),
-    ('candy = "piece of candy"\n', 'candy = "piece of candy"\n"tray/flat_03" = "serving tray"\n'
-                                   '"tray/flat_05" = "serving tray"\n"tray/flat_07" = "serving tray"\n'),
-    ("min_grasps = 2\n", "min_grasps = 1\n"),  # a tray has one pinch on its near wall in the roll it pours by
-    ("pour_steps = 4\n", "pour_steps = 8\n"),
-    ("pour_hold_steps = 160\n", "pour_hold_steps = 160\npour_lifts = [0.0, 0.04, 0.08, 0.12]\n"),
-)
-
-
-def _tray_variant(tmp: Path) -> Recipe:
-    """The shipped dusty recipe with :data:`TRAY_VARIANT` applied, loaded from ``tmp``."""
-    shipped = recipe_path("dusty")
-    text = shipped.read_text(encoding="utf-8")
-    for old, new in TRAY_VARIANT:
-        assert text.count(old) == 1, old
-        text = text.replace(old, new)
-    text = text.replace('spec = "specs/dusty.toml"', f'spec = "{shipped.parent / "specs" / "dusty.toml"}"')
-    (tmp / "dusty.toml").write_text(text, encoding="utf-8")
-    return load_family_recipe(tmp / "dusty.toml")
-
-
-def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(tmp_path: Path,
+TRAY_SOURCE = 12  # one of the base tasks whose source is a tray (12, 13, 15, 17, 18, 21)
+def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(recipe: Recipe,
                                                                               grasps: GraspDB) -> None:
     """The paper's dusty source, a tray (task 12): from raw MuJoCo data it is carried level (under 10° from
     the vertical until it has moved 30 cm across the table; a joint-space carry had tipped it 30°), then
@@ -357,7 +324,6 @@ def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(
     leaves it for good above the destination's cavity (its centre inside the destination's bounding box in
     the horizontal; it may hop out of the source's box and back as the tilt sets off) and ends inside it,
     at rest."""
-    recipe = _tray_variant(tmp_path)
     task = base_task(recipe, TRAY_SOURCE)
     assert task.object("source").model.startswith("tray/")
     assert "from the serving tray into the tray" in task.prompt
@@ -378,7 +344,7 @@ def test_a_tray_source_is_carried_level_and_turned_about_the_edge_over_the_tray(
 
 
 @pytest.mark.parametrize("task_id", [12, 13])  # a tray pinched on either near wall, and on its long one only
-def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(tmp_path: Path, grasps: GraspDB,
+def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(recipe: Recipe, grasps: GraspDB,
                                                             task_id: int) -> None:
     """Every carrier grasp the gate keeps for a tray source puts the TCP between the robot's base and the
     tray's centre, in the roll whose +x axis (the hand's, from the grasp's frame on the tray's raw MuJoCo
@@ -386,7 +352,7 @@ def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(tmp_path: Path, gras
     toward the robot. A pinch on the far wall needs the hand turned round at the stance, which the wrist
     reaches only on a flipped shoulder where the tilt cannot go on; the near pinch's other roll lost its
     tilt's IK at every stance (docs/families.md)."""
-    task = base_task(_tray_variant(tmp_path), task_id)
+    task = base_task(recipe, task_id)
     model = task.object("source").model
     assert model.startswith("tray/")
     scene = build_scene(task)
@@ -403,3 +369,53 @@ def test_a_tray_source_is_held_by_its_wall_nearer_the_robot(tmp_path: Path, gras
         radius = tcp[:2, 3] - d.xpos[src][:2]
         assert radius @ towards_robot > 0.0, gid
         assert np.cross([*radius, 0.0], [0.0, 0.0, 1.0]) @ tcp[:3, 0] > 0.0, gid
+
+
+def _finger_food_gap(scene: Scene, tcp: np.ndarray) -> float:
+    """m between the open fingers' collision geoms and the food's, the arm put (IK) at the TCP pose ``tcp``,
+    from raw ``mj_geomDistance``."""
+    from mgdata.motion import MotionPlanner
+    from mgdata.motion.config import load_motion_config
+    from mgdata.sim.robot import FINGER_BODIES, GRIPPER_MAX_OPENING, arm_qpos_adr, finger_qpos_adr
+
+    m = scene.model
+    d = mujoco.MjData(m)
+    mujoco.mj_copyData(d, m, scene.data)
+    planner = MotionPlanner(m, load_motion_config())
+    planner.sync(d)
+    d.qpos[arm_qpos_adr(m)] = planner.ik(Pose.from_matrix(tcp), scene.arm_q(), np.random.default_rng(0))
+    d.qpos[finger_qpos_adr(m)] = GRIPPER_MAX_OPENING / 2
+    mujoco.mj_forward(m, d)
+    fingers = [g for b in FINGER_BODIES for g in rawdata.subtree_geoms(m, m.body(b).id)
+               if m.geom_contype[g] or m.geom_conaffinity[g]]
+    food = rawdata.subtree_geoms(m, m.body("food").id)
+    return min(mujoco.mj_geomDistance(m, d, int(a), int(b), 0.1, None) for a in fingers for b in food)
+
+
+def test_a_bowl_grasp_whose_finger_back_comes_over_the_candy_is_not_kept(recipe: Recipe,
+                                                                        grasps: GraspDB) -> None:
+    """The carrier grasps the gate keeps leave the open fingers' collision geometry over 5 mm from the
+    candy's (raw ``mj_geomDistance``, the arm put at each grasp), on a bowl's base task; and a layout whose
+    candy lies in the bowl's middle (task 2, draw 5), where the back of the finger inside the bowl comes
+    within 5 mm of it on the far-side pinches, is rejected (``reach.grasps``): checked with the pad's centre
+    alone, it was accepted and both its attempts touched the candy (``unsafe``)."""
+    from mgdata.engine.init_gate import check_initial_state
+    from mgdata.skeleton.skeleton import Infeasible
+    from mgdata.tasks.base import draw_task
+
+    def frames(task):  # type: ignore[no-untyped-def]
+        scene = build_scene(task)
+        src = scene.model.body("source").id
+        frame = np.eye(4)
+        frame[:3, :3], frame[:3, 3] = scene.data.xmat[src].reshape(3, 3), scene.data.xpos[src]
+        return scene, {g.id: frame @ g.matrix() for g in grasps.grasps(task.object("source").model, "valid")}
+
+    kept = base_task(recipe, BOWL_POUR)
+    scene, at = frames(kept)
+    assert all(_finger_food_gap(scene, at[g]) > 0.005 for g in kept.gate["grasps"])
+    middle = draw_task(recipe, 2, 5)
+    scene, at = frames(middle)
+    assert _finger_food_gap(scene, at["rim_225_r0"]) < 0.005
+    with pytest.raises(Infeasible) as why:
+        check_initial_state(middle, recipe, grasps)
+    assert why.value.rule == "reach.grasps"

@@ -86,6 +86,10 @@ PALM_DEPTH = 0.0325
 """m from the TCP back to the palm, along the approach axis (hand +Z)."""
 FINGERTIP_REACH = 0.009
 """m the fingertips reach past the TCP along the approach axis."""
+FINGER_HALF_WIDTH = 0.0091
+"""m a finger spans either side of the closing plane (along the hand's +X) near its tip (collision mesh)."""
+FINGER_DEPTH = 0.0157
+"""m a finger's back lies behind its pad (away from the other finger) near its tip (collision mesh)."""
 
 VISUAL_DECIMATION = 0.1
 """Fraction of faces kept in the Panda's visual meshes."""

@@ -126,3 +126,38 @@ def test_the_compiled_model_is_the_same_wherever_the_panda_is_installed(tmp_path
     env = {**os.environ, "MGDATA_PANDA_XML": str(elsewhere / original.name)}
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
     assert _model_bytes(here, tmp_path, "here.mjb") == moved.read_bytes()
+
+
+def test_the_fingertip_footprint_constants_are_the_collision_geometry_near_the_tips() -> None:
+    """``FINGER_HALF_WIDTH`` and ``FINGER_DEPTH`` (what a grasp must keep clear of food, beside the pad
+    itself) against the fingers' raw collision geometry within 2 cm of the tips, the hand open at home: each
+    finger spans ±``FINGER_HALF_WIDTH`` across the closing plane and reaches ``FINGER_DEPTH`` behind its pad,
+    which is ``GRIPPER_MAX_OPENING / 2`` from the TCP (each within 0.5 mm)."""
+    model = robot.load_panda_spec().compile()
+    data = mujoco.MjData(model)
+    data.qpos[robot.arm_qpos_adr(model)] = robot.HOME_Q
+    for name in robot.FINGER_JOINTS:
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = robot.GRIPPER_MAX_OPENING / 2
+    mujoco.mj_forward(model, data)
+    tcp = data.site(robot.TCP_SITE)
+    rot = tcp.xmat.reshape(3, 3)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    for body in robot.FINGER_BODIES:
+        points = []
+        for g in np.flatnonzero(model.geom_bodyid == model.body(body).id):
+            if not (model.geom_contype[g] or model.geom_conaffinity[g]):
+                continue
+            if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                m = model.geom_dataid[g]
+                local = model.mesh_vert[model.mesh_vertadr[m]:model.mesh_vertadr[m] + model.mesh_vertnum[m]]
+            else:
+                assert model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+                local = corners * model.geom_size[g]
+            world = local @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+            points.append((world - tcp.xpos) @ rot)
+        near_tip = np.concatenate(points)
+        near_tip = near_tip[near_tip[:, 2] > robot.FINGERTIP_REACH - 0.02]
+        side = np.abs(near_tip[:, 1])
+        assert np.min(side) == pytest.approx(robot.GRIPPER_MAX_OPENING / 2, abs=5e-4), body
+        assert np.max(side) - np.min(side) == pytest.approx(robot.FINGER_DEPTH, abs=5e-4), body
+        assert np.max(np.abs(near_tip[:, 0])) == pytest.approx(robot.FINGER_HALF_WIDTH, abs=5e-4), body
