@@ -48,7 +48,7 @@ from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.pick_place import PickPlace
-from mgdata.skeleton.poses import backed_off, raised
+from mgdata.skeleton.poses import UP, backed_off, raised
 from mgdata.skeleton.pour import POUR_KEYS, POUR_KNOB, Pour, is_round
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Param, RecipeKeys, register
 from mgdata.skeleton.wipe import WIPE_KEYS, WIPE_KNOB, Wipe
@@ -97,7 +97,7 @@ class CarrierPick(PickAndCarry):
         side = math.cos(math.radians(ctx.param("pour_side_deg")))
         if is_round(ctx.scene.object_model(self.obj)):
             return bool(cos >= side)
-        tilt_axis = np.array([radial[1], -radial[0], 0.0])  # radial × up: turning about it lowers the far rim
+        tilt_axis = np.cross([*radial, 0.0], UP)  # as the pour's: turning about it lowers the far wall
         return bool(-cos >= side and tilt_axis @ held[:3, 0] > 0.0)
 
     def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
@@ -110,11 +110,10 @@ class CarrierPick(PickAndCarry):
         size = np.asarray(ctx.scene.object_model(self.food).size)
         clear = ctx.param("food_clearance")
         reach = float(np.hypot(size[0], size[1])) / 2 + clear
-        top = food.pos[2] + size[2] + clear
+        if (tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH)[2] >= food.pos[2] + size[2] + clear:
+            return True  # the fingertips stay above the food
         across, out, _ = tcp[:3, :3].T @ (food.pos - tcp[:3, 3])  # the food's centre in the hand's frame
         pad = GRIPPER_MAX_OPENING / 2
-        if (tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH)[2] >= top:
-            return True
         for side in (1.0, -1.0):
             behind = max(pad - side * out, side * out - pad - FINGER_DEPTH, 0.0)
             if math.hypot(max(abs(across) - FINGER_HALF_WIDTH, 0.0), behind) < reach:
@@ -143,8 +142,8 @@ class DustySkeleton(FamilySkeleton):
         *(p for p in PICK_AND_CARRY_KEYS.params if p.name in _PICK_PARAMS),
         Param("food_clearance", float, "m the open fingertips of a carrier grasp keep from the food",
               0.0, 0.2),
-        Param("pour_side_deg", float, "a carrier grasp's radius is at most this far from the "
-              "direction away from the robot", 0.0, 180.0),
+        Param("pour_side_deg", float, "deg a carrier grasp's radius is at most from the direction away from "
+              "the robot (a bowl's; a tray's from the direction towards it)", 0.0, 180.0),
         Param("carrier_tilt_max_deg", float, "deg a carrier grasp's approach leans from straight down at "
               "most", 0.0, 90.0),
         Param("sponge_grasp_raise", float, "m the sponge's DB grasp is raised along its vertical", 0.0, 0.05),
