@@ -17,7 +17,7 @@ from mgdata.spec import Proposition, SafetySpec
 from tests.helpers.sim_tasks import task_with
 
 REQUIRED = {"cup", "mug", "teacup", "bowl", "plate", "box", "bottle", "jar", "food", "container", "lid",
-            "tray", "sponge", "board", "cabinet", "liquid", "dust"}
+            "tray", "sponge", "board", "cabinet", "holder", "liquid", "dust"}
 
 
 def test_library_has_every_required_category_and_hundreds_of_models() -> None:
@@ -100,6 +100,33 @@ def test_container_lid_pairs_seat() -> None:
         scene.reset()
         assert Labeller(scene, spec).as_dict()["lid_on"], f"{lid.name} does not rest on {name}"
         assert scene.object_pose("lid")[0][2] == pytest.approx(tub.geometry["seat_height"], abs=2e-3)
+
+
+@pytest.mark.parametrize("name", model_names("holder"))
+def test_a_paper_towel_holder_lies_on_its_plate_with_its_bar_between_the_arms(name: str) -> None:
+    model = get_model(name)
+    scene = build_scene(task_with(ObjectPlacement("holder", name, (0.6, 0.0, 0.0))))
+    scene.reset()
+    for _ in range(250):  # 0.5 s at rest on the table
+        mujoco.mj_step(scene.model, scene.data)
+    m, d = scene.model, scene.data
+    geom = {g: m.geom(f"holder/{g}").id for g in ("plate", "arm_p", "arm_n", "bar")}
+    bar = geom["bar"]
+    bar_r, bar_half = m.geom_size[bar, :2]
+    bar_axis = d.geom_xmat[bar].reshape(3, 3)[:, 2]
+    assert abs(bar_axis[0]) > 0.999  # horizontal, along the holder's X
+    assert d.geom_xpos[bar, 2] == pytest.approx(model.geometry["bar_z"], abs=5e-4)
+    assert bar_r == pytest.approx(model.geometry["bar_radius"])
+    for arm in ("arm_p", "arm_n"):  # each bar end meets an arm's inner face; the arm stands above the bar
+        g = geom[arm]
+        inner = abs(d.geom_xpos[g, 0] - d.geom_xpos[bar, 0]) - m.geom_size[g, 0]
+        assert inner == pytest.approx(bar_half, abs=1e-6)
+        assert d.geom_xpos[g, 2] + m.geom_size[g, 2] > d.geom_xpos[bar, 2] + bar_r
+    plate = geom["plate"]
+    assert d.geom_xpos[plate, 2] - m.geom_size[plate, 2] == pytest.approx(0.0, abs=5e-4)  # flat on the table
+    top = max(d.geom_xpos[g, 2] + m.geom_size[g, 2] for g in (geom["arm_p"], geom["arm_n"]))
+    assert top == pytest.approx(model.size[2], abs=5e-4)
+    assert 2 * m.geom_size[plate, 0] == pytest.approx(model.size[0]) and 2 * bar_r < model.size[1]
 
 
 def test_cabinet_drawer_slides_open_when_pulled() -> None:

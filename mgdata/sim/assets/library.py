@@ -28,6 +28,7 @@ from mgdata.sim.assets.cabinet import build_cabinet
 from mgdata.sim.assets.container import build_container, build_lid
 from mgdata.sim.assets.food import food_builder
 from mgdata.sim.assets.granular import build_dust, build_liquid
+from mgdata.sim.assets.holder import build_towel_holder
 from mgdata.sim.assets.lidded import build_bottle as build_capped_bottle
 from mgdata.sim.assets.lidded import build_canister, build_canister_lid, build_cap
 from mgdata.sim.assets.model import ObjectModel, model_seed
@@ -67,6 +68,7 @@ def _kinds() -> tuple[Kind, ...]:
         Kind("sponge", "block", 8, boxes.build_sponge),
         Kind("board", "chopping", 8, boxes.build_board),
         Kind("cabinet", "drawer", 8, build_cabinet),
+        Kind("holder", "towel", 8, build_towel_holder),
     ]
     kinds += [Kind("food", k, 8, food_builder(k)) for k in ("cherry", "cookie", "candy", "olive", "nugget")]
     kinds += [Kind("liquid", "water", 8, build_liquid), Kind("dust", "layer", 8, build_dust)]
