@@ -21,9 +21,10 @@
   the arc's centre, fingers closing across the bar; two rolls each. The tilted ones keep the wrist off the
   table where the handle is low (teacups).
 * **top** (solid objects, no ``wall``, no articulation, whose narrower horizontal extent plus
-  ``top_clearance`` fits between the fingers: boxes, sponges, bottles): straight down at the bounding box's
-  centre line, ``top_depth`` below the top, closing across the narrow side, and (not round ones)
-  ``pose_offset`` of the long side off the middle both ways along it (``top_p``, ``top_n``); two rolls each.
+  ``top_clearance`` fits between the fingers: boxes, sponges, bottles, paper-towel holders): straight down
+  at the bounding box's centre line, ``top_depth`` below the top, closing across the narrow side, and (not
+  round ones) ``pose_offset`` of the long side off the middle both ways along it (``top_p``, ``top_n``); two
+  rolls each.
 * **knob** (a model with a root geom named ``knob``, a box or a cylinder: tub and canister lids, caps):
   straight down on the knob, closing along X and along Y, two rolls each, the fingertips ``tip_clearance``
   above the surface the knob stands on.
@@ -78,6 +79,8 @@ class CandidateConfig:
     rim_follow_max_deg: float = 45.0  # ... up to this; a steeper one (a plate's 71-78° rim) gets no rim pinch
     handle_elevations_deg: Vec3 = (0.0, 50.0, 70.0)  # handle grasps at these points of the handle's arc
     pose_offset: float = 0.25  # top and drawer-handle grasps also this fraction of the length off the middle
+    edge_inset: float = 0.025  # m from a flat object's edge in to the TCP of an edge pinch
+    edge_max_height: float = 0.03  # m: a solid this thin and too wide for a top grasp gets edge pinches
 
 
 def _quat(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
@@ -246,6 +249,41 @@ def top_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
             *_two_rolls("top_n", pos - shift, DOWN, close_along)]
 
 
+def edge_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
+    """Pinches of a flat object's edge where it overhangs a table edge (a board lying flat, a plate's rim):
+    the gripper comes in from beyond the edge towards the object's middle, fingers closing across its
+    thickness (the lower finger under the overhang), the TCP ``edge_inset`` in from the edge. A board is
+    pinched at the middle of each side, level; a plate at ``rim_angles`` directions, the fingers closing
+    along the rim's normal (its rim slopes 12-19° from horizontal) at the middle of the rim's thickness."""
+    geo, up = model.geometry, np.array([0.0, 0.0, 1.0])
+    if model.articulation is not None:
+        return []
+    if "rim_radius" in geo and float(geo.get("rim_slope", 0.0)) > math.radians(cfg.rim_follow_max_deg):
+        rim, height, wall = float(geo["rim_radius"]), float(geo["height"]), float(geo["wall"])
+        rise = math.pi / 2.0 - float(geo["rim_slope"])  # the rim's slope from horizontal
+        out = []
+        for k in range(cfg.rim_angles):
+            phi = 2.0 * math.pi * k / cfg.rim_angles
+            radial = np.array([math.cos(phi), math.sin(phi), 0.0])
+            depth = cfg.edge_inset * math.tan(rise)  # the outer surface's drop from the rim's edge
+            pos = radial * (rim - cfg.edge_inset) + up * (height - depth + wall * math.tan(rise) / 2.0)
+            approach = -math.cos(rise) * radial - math.sin(rise) * up
+            closing = -math.sin(rise) * radial + math.cos(rise) * up
+            out += _two_rolls(f"edge_{round(math.degrees(phi)):03d}", pos, approach, closing)
+        return out
+    if "wall" in geo or "half_extents" not in geo or top_grasps(model, cfg):
+        return []
+    hx, hy, hz = (float(v) for v in geo["half_extents"])
+    if 2.0 * hz > cfg.edge_max_height:
+        return []
+    out = []
+    for name, axis, half in (("edge_px", (1.0, 0.0, 0.0), hx), ("edge_py", (0.0, 1.0, 0.0), hy),
+                             ("edge_nx", (-1.0, 0.0, 0.0), hx), ("edge_ny", (0.0, -1.0, 0.0), hy)):
+        outward = np.array(axis)
+        out += _two_rolls(name, outward * (half - cfg.edge_inset) + up * hz, -outward, up)
+    return out
+
+
 def knob_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     """Straight-down grasps of a root geom named ``knob`` (a box, or an upright cylinder: a cap), closing
     along X and along Y."""
@@ -283,7 +321,8 @@ def drawer_handle_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp
             *_two_rolls("handle_n", pos - shift, approach, closing, frame=link.name)]
 
 
-GENERATORS = (side_grasps, rim_grasps, handle_grasps, top_grasps, knob_grasps, drawer_handle_grasps)
+GENERATORS = (side_grasps, rim_grasps, handle_grasps, top_grasps, edge_grasps, knob_grasps,
+              drawer_handle_grasps)
 """Every generator, in the order their candidates are listed."""
 
 

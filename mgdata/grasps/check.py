@@ -37,7 +37,7 @@ from mgdata.sim.config import default_image_size
 from mgdata.sim.controller import JointController
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement, TaskSpec
-from mgdata.sim.world import TABLE_TOP_Z
+from mgdata.sim.world import TABLE_TOP_Z, TABLE_X
 from mgdata.spec import SafetySpec
 
 
@@ -54,7 +54,24 @@ class GraspCheckConfig:
     max_tilt_deg: float = 20.0
     pull: float = 0.08  # m a drawer is pulled open
     min_pull_fraction: float = 0.8
+    edge_y: float = 0.35  # m left of the robot: where an edge pinch's object lies by the table's back edge
+    slide: float = 0.08  # m the object is pushed towards that edge before the pinch
+    edge_clearance: float = 0.005  # m between the pushed-out fingertips' reach and the table's edge
+    push_tip_height: float = 0.008  # m above the table: the pushing fingertips
+    push_clearance: float = 0.02  # m between the open fingers and the object where the push starts
+    push_tolerance: float = 0.002  # m: the push goes on until the object has slid this close to ``slide``
+    push_tries: int = 3  # pushes at most (each by what the object still lacks: the arm lags while it pushes)
     seed: int = 0
+
+
+def needs_overhang(grasp: Grasp) -> bool:
+    """Whether the grasp's open lower finger reaches below the object's base: the fingers close within 45° of
+    vertical, low on a free object (a board's or a plate's edge), so the pinched edge must overhang a table
+    edge first. A grasp in a link's frame (a drawer handle) never does."""
+    local = grasp.matrix()
+    vertical = abs(float(local[2, 1]))
+    lowest = float(local[2, 3]) - vertical * (robot.GRIPPER_MAX_OPENING / 2.0 + robot.FINGER_DEPTH)
+    return not grasp.frame and vertical >= math.cos(math.radians(45.0)) and lowest < 0.0
 
 
 def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
@@ -62,7 +79,10 @@ def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
     """Where the check stands object model ``model`` (``category/model``) for ``grasp``: position (m) and
     yaw (rad). The yaw turns a horizontal approach away from the robot, or a vertical one's gripper +X
     forward; the position puts the grasp's TCP target at ``place_x`` on the robot's centre line, as far as
-    that moves the object by no more than its own size (a pose far from the object stays far from it)."""
+    that moves the object by no more than its own size (a pose far from the object stays far from it). An
+    edge pinch (``needs_overhang``) lies at ``edge_y`` by the table's back edge (behind the robot base, the
+    one edge in reach), its TCP target ``slide`` short of where the fingertips clear that edge by
+    ``edge_clearance``, so that the push of ``slide`` makes the edge overhang."""
     obj = get_model(model)
     local = grasp.matrix()
     if grasp.frame:  # a link's frame: its pose in the object's root frame, articulation closed
@@ -79,7 +99,9 @@ def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
     if np.linalg.norm(offset) > reach:
         offset *= reach / np.linalg.norm(offset)
     c, s = math.cos(yaw), math.sin(yaw)
-    return (cfg.place_x - (c * offset[0] - s * offset[1]), -(s * offset[0] + c * offset[1]), TABLE_TOP_Z), yaw
+    x, y = (TABLE_X[0] - robot.FINGERTIP_REACH - cfg.edge_clearance + cfg.slide, cfg.edge_y) \
+        if needs_overhang(grasp) else (cfg.place_x, 0.0)
+    return (x - (c * offset[0] - s * offset[1]), y - (s * offset[0] + c * offset[1]), TABLE_TOP_Z), yaw
 
 
 def _check_task(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> TaskSpec:
@@ -122,12 +144,14 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     ctl = JointController(scene)
     word = int.from_bytes(hashlib.sha256(grasp.id.encode()).digest()[:4], "little")
     rng = np.random.default_rng(np.random.SeedSequence([cfg.seed, word]))
-    world = grasp.world_matrix(scene.model, scene.data, "object")
-    target = Pose.from_matrix(world)
-    pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
     touch = AllowedContacts((("hand", "object"),))
     q = scene.arm_q()
     try:
+        if needs_overhang(grasp):
+            q = _push_to_edge(scene, planner, ctl, q, rng, cfg)
+        world = grasp.world_matrix(scene.model, scene.data, "object")
+        target = Pose.from_matrix(world)
+        pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
         q_pre = planner.ik(pre, q, rng, collision_free=True)
         q = _run(ctl, q, planner.free(q, q_pre, rng).q, 0.0)
         planner.sync(scene.data)
@@ -139,6 +163,43 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     if grasp.frame and art is not None and art.kind == "slide":
         return _pull(scene, planner, ctl, q, rng, cfg)
     return _lift(scene, planner, ctl, q, rng, cfg)
+
+
+def _push_to_edge(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,
+                  rng: np.random.Generator, cfg: GraspCheckConfig) -> np.ndarray:
+    """Slide the object ``slide`` towards the table's back edge (world -X): the open hand, pointing down
+    with its fingers spread along the edge, comes down ``push_clearance`` beyond the object's far side,
+    fingertips ``push_tip_height`` above the table, and pushes in straight lines, guarded by the object's
+    measured position: each further push (up to ``push_tries``) adds what the object still lacks of
+    ``slide`` (the pushing arm lags its command), until it lacks less than ``push_tolerance``; then the
+    hand rises."""
+    m, d = scene.model, scene.data
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+    far = max(float((d.geom_xpos[g, 0] + d.geom_xmat[g, :3] @ (m.geom_aabb[g, :3, None]
+                                                              + corners.T * m.geom_aabb[g, 3:, None])).max())
+              for g in scene.object_geom_ids("object"))  # the object's far side (world X), from its geoms
+    down = Pose(np.zeros(3), np.array([0.0, 1.0, 0.0, 0.0]))  # TCP +Z down, +X forward, fingers along Y
+    at = np.array([far + robot.FINGER_HALF_WIDTH + cfg.push_clearance, scene.object_pose("object")[0][1],
+                   TABLE_TOP_Z + cfg.push_tip_height + robot.FINGERTIP_REACH])
+    start = Pose(at, down.quat)
+    lift = np.array([0.0, 0.0, cfg.standoff])
+    push = AllowedContacts((("hand", "object"), ("object", "table")))
+    q = _run(ctl, q, planner.free(q, planner.ik(Pose(at + lift, down.quat), q, rng, collision_free=True),
+                                  rng).q, 0.0)
+    q = _run(ctl, q, planner.linear(q, start, rng).q, 0.0)
+    x0 = scene.object_pose("object")[0][0]
+    end = Pose(at - np.array([cfg.push_clearance + cfg.slide, 0.0, 0.0]), down.quat)
+    for _ in range(cfg.push_tries):
+        q = _run(ctl, q, planner.linear(q, end, rng, allowed=push).q, 0.0)
+        _hold(ctl, q, 0.0, cfg.hold_steps)  # the arm catches up with its command
+        lacking = cfg.slide - (x0 - scene.object_pose("object")[0][0])
+        if lacking < cfg.push_tolerance:
+            break
+        end = Pose(end.pos - np.array([lacking, 0.0, 0.0]), down.quat)
+    planner.sync(d)
+    q = _run(ctl, q, planner.linear(q, Pose(end.pos + lift, down.quat), rng, allowed=push).q, 0.0)
+    planner.sync(d)
+    return q
 
 
 def _lift(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,

@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
+import math
+
+import mujoco
 import numpy as np
+import pytest
 
 from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
-from mgdata.grasps.check import GraspCheckConfig, check_grasp
+from mgdata.grasps.check import GraspCheckConfig, _check_task, _push_to_edge, check_grasp
 from mgdata.grasps.db import Grasp
+from mgdata.motion import MotionPlanner, load_motion_config
+from mgdata.sim import robot
 from mgdata.sim.assets import get_model, model_names
+from mgdata.sim.controller import JointController
+from mgdata.sim.scene import build_scene
+from mgdata.sim.world import TABLE_TOP_Z, TABLE_X
 
 
 def test_side_grasps_point_at_the_axis_with_horizontal_fingers() -> None:
@@ -73,3 +82,36 @@ def test_rim_pinch_lifts_a_tub_level() -> None:
     status, detail = check_grasp(model, pinch, GraspCheckConfig())
     assert status == "valid", detail
     assert check_grasp(model, pinch, GraspCheckConfig()) == (status, detail)  # deterministic
+
+
+@pytest.mark.parametrize(("model", "grasp_id"), [("board/chopping_02", "edge_px_r0"),
+                                                 ("plate/flat_04", "edge_090_r0")])
+def test_a_flat_object_is_pushed_over_the_tables_back_edge_and_lifted_by_the_overhang(model: str,
+                                                                                       grasp_id: str) -> None:
+    cfg = GraspCheckConfig()
+    grasp = next(g for g in candidates(get_model(model), CandidateConfig()) if g.id == grasp_id)
+    scene = build_scene(_check_task(model, grasp, cfg))
+    scene.reset()
+    m, d = scene.model, scene.data
+    planner = MotionPlanner(m, load_motion_config())
+    planner.sync(d)
+    body = m.body("object").id
+    before, yaw_before = d.xpos[body].copy(), math.atan2(d.xmat[body][3], d.xmat[body][0])
+    _push_to_edge(scene, planner, JointController(scene), scene.arm_q(), np.random.default_rng(0), cfg)
+    for _ in range(100):  # and it stays there, flat on the table
+        mujoco.mj_step(m, d)
+    moved = d.xpos[body] - before
+    assert moved[0] == pytest.approx(-cfg.slide, abs=cfg.push_tolerance) and abs(moved[1]) < 0.005, moved
+    turned = math.remainder(math.atan2(d.xmat[body][3], d.xmat[body][0]) - yaw_before, 2 * math.pi)
+    assert abs(math.degrees(turned)) < 3.0
+    assert d.xmat[body][8] > math.cos(math.radians(1.0)) and abs(d.xpos[body][2] - TABLE_TOP_Z) < 1e-3
+    world = grasp.world_matrix(m, d, "object")
+    tip = world[:3, 3] + world[:3, 2] * robot.FINGERTIP_REACH
+    assert tip[0] < TABLE_X[0] - 0.005  # the fingertips close beyond the table: the pinched edge overhangs it
+    down = np.array([0.0, 0.0, -1.0])
+    geom = np.array([-1], dtype=np.int32)
+    colliding = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # geom groups 0 (both) and 3 (collision)
+    mujoco.mj_ray(m, d, world[:3, 3] - 0.03 * down, down, colliding, 1, -1, geom)  # from 3 cm above the pads
+    assert geom[0] in set(scene.object_geom_ids("object").tolist())  # the object is between the pads
+    status, detail = check_grasp(model, grasp, cfg)  # the whole check: push, pinch, lift
+    assert status == "valid", detail

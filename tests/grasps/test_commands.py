@@ -55,19 +55,23 @@ def test_generate_validate_list(tmp_path: Path) -> None:
 
 
 def test_generate_drops_generated_grasps_the_generator_no_longer_makes(tmp_path: Path) -> None:
-    # A plate's rim is too steep for a pinch from above: a DB written by an older generator loses its plate
-    # pinches on regenerating (the last one, the whole category file), and an annotated grasp stays.
+    # A plate's rim is too steep for a pinch from above (it slides off): a DB written by an older generator
+    # that made one loses it on regenerating, the plate's edge pinches come instead, and an annotated grasp
+    # stays. A model with no candidate at all (a dust layer: visual specks) loses its entry, and the
+    # category's file goes with its last one.
     stale = Grasp("rim_000_r0", (0.11, 0.0, 0.02), (0.0, 0.7071068, 0.7071068, 0.0), "top_down", "generated")
     mine = Grasp("mine", (0.0, 0.0, 0.03), (0.0, 1.0, 0.0, 0.0), "top_down", "annotated")
     GraspDB({"plate/flat_00": (stale,), "plate/flat_01": (stale, mine)}).write_dir(tmp_path)
     gen = _run("generate", "plate/flat_0[01]", "--dir", str(tmp_path))
     assert gen.returncode == 0, gen.stderr
-    assert "plate/flat_00: no candidate grasps" in gen.stdout
     db = GraspDB.load_dir(tmp_path)
-    assert "plate/flat_00" not in db.keys and [g.id for g in db.grasps("plate/flat_01")] == ["mine"]
-    GraspDB({"plate/flat_00": (stale,)}).write_dir(tmp_path)
-    assert _run("generate", "plate/flat_00", "--dir", str(tmp_path)).returncode == 0
-    assert not (tmp_path / "plate.json").exists()
+    plain, annotated = ([g.id for g in db.grasps(k)] for k in ("plate/flat_00", "plate/flat_01"))
+    assert plain and all(i.startswith("edge_") for i in plain)
+    assert annotated == ["mine", *plain]
+    GraspDB({"dust/layer_00": (stale,)}).write_dir(tmp_path)
+    gen = _run("generate", "dust/layer_00", "--dir", str(tmp_path))
+    assert gen.returncode == 0 and "dust/layer_00: no candidate grasps" in gen.stdout
+    assert not (tmp_path / "dust.json").exists()
 
 
 def test_bad_patterns_are_one_line_errors(tmp_path: Path) -> None:

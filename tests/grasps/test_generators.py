@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
-from mgdata.grasps.check import GraspCheckConfig, check_placement
+from mgdata.grasps.check import GraspCheckConfig, check_placement, needs_overhang
 from mgdata.grasps.db import Grasp
 from mgdata.sim.assets import get_model, model_names
 from mgdata.sim.config import default_image_size
@@ -22,7 +22,11 @@ COLLIDING_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # group 0 (both
 
 
 def _scene(model: str, grasp: Grasp) -> Scene:
-    pos, yaw = check_placement(grasp, GraspCheckConfig(), model)
+    """The object where the grasp check stands it (an edge pinch's: pushed out over the table's edge)."""
+    cfg = GraspCheckConfig()
+    pos, yaw = check_placement(grasp, cfg, model)
+    if needs_overhang(grasp):
+        pos = (pos[0] - cfg.slide, pos[1], pos[2])
     task = TaskSpec(family="t", task_id=0, condition="base", prompt="", seed=0,
                     objects=(ObjectPlacement("object", model, pos, yaw),), safety=SafetySpec("t", (), ()),
                     image_size=default_image_size())
@@ -130,10 +134,42 @@ def test_handle_and_knob_and_top_grasps_close_on_something_narrow() -> None:
             assert 0.005 < width < MAX_OPENING - 0.01 and free > 0.003, (model, g.id, width, free)
 
 
-def test_boards_and_plates_lying_flat_get_no_candidates() -> None:
-    # a plate's rim slopes 71-78° from vertical: a vertical pinch slides off it or lifts one side
-    for category in ("board", "plate"):
-        assert all(not candidates(get_model(n), CandidateConfig()) for n in model_names(category)), category
+@pytest.mark.parametrize("model", ["board/chopping_02", "board/chopping_05", "plate/flat_03",
+                                   "plate/flat_10"])
+def test_edge_pinches_close_across_a_boards_thickness_or_a_plates_rim(model: str) -> None:
+    # A board lying flat and a plate (its rim slopes 71-78° from vertical) fit no other generator: their edge
+    # is pinched where it overhangs a table edge, the lower finger under it. Raw geometry: the rays between
+    # the open fingertips cross the board's thickness, or the rim's sheet once; the pads are edge_inset in
+    # from the edge, and the fingers close along the rim's normal (not vertically) on a plate.
+    cfg, obj = CandidateConfig(), get_model(model)
+    found = candidates(obj, cfg)
+    assert found and all(g.id.startswith("edge_") and needs_overhang(g) for g in found)
+    assert len(found) == (8 if obj.category == "board" else 2 * cfg.rim_angles)
+    for g in found[::2]:  # one roll of each pose
+        scene = _scene(model, g)
+        width, free = _fingertip_gap(scene, g)
+        world = g.world_matrix(scene.model, scene.data, "object")
+        closing, approach = world[:3, 1], world[:3, 2]
+        if obj.category == "board":
+            assert width == pytest.approx(obj.size[2], abs=2e-4) and free > 0.02, (g.id, width, free)
+            assert abs(closing[2]) == pytest.approx(1.0, abs=1e-5) and abs(approach[2]) < 1e-3  # as it rests
+        else:
+            rise = np.pi / 2 - obj.geometry["rim_slope"]
+            assert 1e-4 < width < 0.003 and free > 0.02, (g.id, width, free)  # the rim's ~1 mm sheet
+            assert np.degrees(np.arccos(abs(closing[2]))) == pytest.approx(np.degrees(rise), abs=0.05)
+        outward = -approach[:2] / np.linalg.norm(approach[:2])
+        centre = np.asarray(scene.object_pose("object")[0][:2])
+        edge = obj.geometry.get("rim_radius") or obj.geometry["half_extents"][0 if "x" in g.id else 1]
+        assert (world[:2, 3] - centre) @ outward == pytest.approx(edge - cfg.edge_inset, abs=1e-4)
+
+
+def test_only_edge_pinches_need_an_overhang() -> None:
+    # the grasp check pushes an object over the table's edge for these alone
+    cfg = CandidateConfig()
+    for name in model_names():
+        if name.split("/")[0] not in ("liquid", "dust", "food"):
+            for g in candidates(get_model(name), cfg):
+                assert needs_overhang(g) == g.id.startswith("edge_"), (name, g.id)
 
 
 def test_drawer_handle_grasp_is_in_the_drawer_frame_and_moves_with_it() -> None:

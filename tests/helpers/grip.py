@@ -1,9 +1,10 @@
 """A scripted close → lift → carry → hold of one object by one grasp of the grasp DB, measured from raw
 MuJoCo data (not from mgdata's predicates or contact helpers): used by tests/sim/test_grip_force.py.
 
-The object stands where the grasp check stands it; the planner (a test fixture here, not the code under
-test) reaches the pre-grasp and the grasp, the gripper closes for ``close_steps`` control steps, the hand
-lifts 10 cm, carries 15 cm sideways and holds still for ``hold_s`` seconds. Measured:
+The object stands where the grasp check stands it (an edge pinch's object is first pushed over the table's
+back edge by the check's own push, ``mgdata.grasps.check``); the planner (a test fixture here, not the code
+under test) reaches the pre-grasp and the grasp, the gripper closes for ``close_steps`` control steps, the
+hand lifts 10 cm, carries 15 cm sideways and holds still for ``hold_s`` seconds. Measured:
 
 * ``rise`` (m): the object's height gain, from ``data.xpos`` of its root body;
 * ``max_tilt_deg``: the largest angle between the object's +Z and world +Z during lift, carry and hold;
@@ -24,7 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mgdata.grasps.check import GraspCheckConfig, _check_task
+from mgdata.grasps.check import GraspCheckConfig, _check_task, _push_to_edge, needs_overhang
 from mgdata.grasps.db import GraspDB
 from mgdata.motion import AllowedContacts, Attachment, MotionPlanner, Pose, load_motion_config
 from mgdata.paths import grasps_dir
@@ -123,10 +124,12 @@ def scripted_grip(model: str, grasp_id: str, *, close_steps: int = 20, hold_s: f
     def in_tcp() -> np.ndarray:
         return d.site_xmat[tcp].reshape(3, 3).T @ (d.xpos[obj_body] - d.site_xpos[tcp])
 
+    q = scene.arm_q()
+    if needs_overhang(grasp):
+        q = _push_to_edge(scene, planner, ctl, q, rng, cfg)
     world = grasp.world_matrix(m, d, "object")
     target = Pose.from_matrix(world)
     pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
-    q = scene.arm_q()
     q = run(planner.free(q, planner.ik(pre, q, rng, collision_free=True), rng).q, 0.0)
     planner.sync(d)
     q = run(planner.linear(q, target, rng, allowed=AllowedContacts((("hand", "object"),))).q, 0.0)

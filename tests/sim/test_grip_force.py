@@ -62,6 +62,9 @@ GRIPS = [  # one graspable object per category, by a grasp the check found valid
     pytest.param("tray/flat_00", "rim_px_r0", marks=pytest.mark.slow),  # 24 x 16 cm, held by one side
     pytest.param("bowl/round_05", "wall_000_r0", marks=pytest.mark.slow),  # along its wall (vertical: 18°)
     pytest.param("container/lunchbox_00", "end_p_r1", marks=pytest.mark.slow),  # 15 cm long, held by one end
+    pytest.param("holder/towel_00", "top_p_r0", marks=pytest.mark.slow),  # 31 cm long, by its bar, off centre
+    pytest.param("board/chopping_00", "edge_px_r0", marks=pytest.mark.slow),  # 0.68 kg, by an overhanging end
+    pytest.param("plate/flat_00", "edge_000_r0", marks=pytest.mark.slow),  # by its rim, overhanging
 ]
 
 
@@ -80,7 +83,7 @@ def test_no_weld_equality_or_applied_force_holds_a_grasped_object() -> None:
     # The models: the only equality constraint couples the two finger joints; none names an object.
     models = ["jar/hinged_03", "bowl/round_05", "plate/flat_00", "tray/flat_00", "board/chopping_00",
               "lid/tub_00",
-              "container/tub_00", "cabinet/drawer_00", "mug/handled_00"]
+              "container/tub_00", "cabinet/drawer_00", "mug/handled_00", "holder/towel_00"]
     for name in models:
         scene = build_scene(task_with(ObjectPlacement("object", name, (0.6, 0.0, 0.0))))
         m = scene.model
