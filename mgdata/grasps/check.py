@@ -15,6 +15,11 @@ pre-grasp pose, a straight approach, closing the gripper, then
   pull by ``pull`` along the slide axis and a short hold. Valid when the slide joint (read from ``qpos``)
   opened by at least ``min_pull_fraction`` of the pull and both fingers still touch the handle.
 
+An edge pinch (:func:`needs_overhang`: a board's or a plate's edge, the lower finger under it) needs its edge
+over a table edge first: the object lies by the table's back edge, behind the robot base (the one edge the
+hand reaches from beyond it), and a guarded push of the open hand slides it ``slide`` over it before the
+pre-grasp.
+
 Example::
 
     status, detail = check_grasp("jar/hinged_03", grasp, GraspCheckConfig())
