@@ -35,6 +35,7 @@ import numpy as np
 
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp
+from mgdata.grasps.edge import needs_overhang, push_start, shortfall
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
@@ -64,19 +65,9 @@ class GraspCheckConfig:
     edge_clearance: float = 0.005  # m between the pushed-out fingertips' reach and the table's edge
     push_tip_height: float = 0.008  # m above the table: the pushing fingertips
     push_clearance: float = 0.02  # m between the open fingers and the object where the push starts
-    push_tolerance: float = 0.002  # m: the push goes on until the object has slid this close to ``slide``
-    push_tries: int = 3  # pushes at most (each by what the object still lacks: the arm lags while it pushes)
+    push_tolerance: float = 0.002  # m: the push goes on until the object lacks less than this
+    push_tries: int = 4  # pushes at most (each by what the object still lacks: the arm lags while it pushes)
     seed: int = 0
-
-
-def needs_overhang(grasp: Grasp) -> bool:
-    """Whether the grasp's open lower finger reaches below the object's base: the fingers close within 45° of
-    vertical, low on a free object (a board's or a plate's edge), so the pinched edge must overhang a table
-    edge first. A grasp in a link's frame (a drawer handle) never does."""
-    local = grasp.matrix()
-    vertical = abs(float(local[2, 1]))
-    lowest = float(local[2, 3]) - vertical * (robot.GRIPPER_MAX_OPENING / 2.0 + robot.FINGER_DEPTH)
-    return not grasp.frame and vertical >= math.cos(math.radians(45.0)) and lowest < 0.0
 
 
 def check_placement(grasp: Grasp, cfg: GraspCheckConfig,
@@ -153,7 +144,7 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     q = scene.arm_q()
     try:
         if needs_overhang(grasp):
-            q = _push_to_edge(scene, planner, ctl, q, rng, cfg)
+            q = _push_to_edge(scene, planner, ctl, q, rng, cfg, grasp)
         world = grasp.world_matrix(scene.model, scene.data, "object")
         target = Pose.from_matrix(world)
         pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
@@ -171,39 +162,31 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
 
 
 def _push_to_edge(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,
-                  rng: np.random.Generator, cfg: GraspCheckConfig) -> np.ndarray:
-    """Slide the object ``slide`` towards the table's back edge (world -X): the open hand, pointing down
-    with its fingers spread along the edge, comes down ``push_clearance`` beyond the object's far side,
-    fingertips ``push_tip_height`` above the table, and pushes in straight lines, guarded by the object's
-    measured position: each further push (up to ``push_tries``) adds what the object still lacks of
-    ``slide`` (the pushing arm lags its command), until it lacks less than ``push_tolerance``; then the
-    hand rises."""
-    m, d = scene.model, scene.data
-    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
-    far = max(float((d.geom_xpos[g, 0] + d.geom_xmat[g, :3] @ (m.geom_aabb[g, :3, None]
-                                                              + corners.T * m.geom_aabb[g, 3:, None])).max())
-              for g in scene.object_geom_ids("object"))  # the object's far side (world X), from its geoms
-    down = Pose(np.zeros(3), np.array([0.0, 1.0, 0.0, 0.0]))  # TCP +Z down, +X forward, fingers along Y
-    at = np.array([far + robot.FINGER_HALF_WIDTH + cfg.push_clearance, scene.object_pose("object")[0][1],
-                   TABLE_TOP_Z + cfg.push_tip_height + robot.FINGERTIP_REACH])
-    start = Pose(at, down.quat)
+                  rng: np.random.Generator, cfg: GraspCheckConfig, grasp: Grasp) -> np.ndarray:
+    """Slide the object towards the table's back edge (world -X) until ``grasp``'s fingertips clear it by
+    ``edge_clearance``: the open hand, pointing down with its fingers spread along the edge, comes down
+    ``push_clearance`` beyond the object's far side, fingertips ``push_tip_height`` above the table, and
+    pushes in straight lines, guarded by the object's measured pose: each push (at most ``push_tries``) goes
+    as far as the object still lacks (the pushing arm lags its command, so the next one adds what the last
+    fell short), until it lacks less than ``push_tolerance``; then the hand rises."""
+    start = push_start(scene, "object", cfg.push_tip_height, cfg.push_clearance)
     lift = np.array([0.0, 0.0, cfg.standoff])
     push = AllowedContacts((("hand", "object"), ("object", "table")))
-    q = _run(ctl, q, planner.free(q, planner.ik(Pose(at + lift, down.quat), q, rng, collision_free=True),
-                                  rng).q, 0.0)
+    above = planner.ik(Pose(start.pos + lift, start.quat), q, rng, collision_free=True)
+    q = _run(ctl, q, planner.free(q, above, rng).q, 0.0)
     q = _run(ctl, q, planner.linear(q, start, rng).q, 0.0)
-    x0 = scene.object_pose("object")[0][0]
-    end = Pose(at - np.array([cfg.push_clearance + cfg.slide, 0.0, 0.0]), down.quat)
+    end, gap = start, cfg.push_clearance
     for _ in range(cfg.push_tries):
-        q = _run(ctl, q, planner.linear(q, end, rng, allowed=push).q, 0.0)
-        _hold(ctl, q, 0.0, cfg.hold_steps)  # the arm catches up with its command
-        lacking = cfg.slide - (x0 - scene.object_pose("object")[0][0])
+        lacking = shortfall(grasp.world_matrix(scene.model, scene.data, "object"), cfg.edge_clearance)
         if lacking < cfg.push_tolerance:
             break
-        end = Pose(end.pos - np.array([lacking, 0.0, 0.0]), down.quat)
-    planner.sync(d)
-    q = _run(ctl, q, planner.linear(q, Pose(end.pos + lift, down.quat), rng, allowed=push).q, 0.0)
-    planner.sync(d)
+        end = Pose(end.pos - np.array([gap + lacking, 0.0, 0.0]), start.quat)
+        q = _run(ctl, q, planner.linear(q, end, rng, allowed=push).q, 0.0)
+        _hold(ctl, q, 0.0, cfg.hold_steps)  # the arm catches up with its command
+        gap = 0.0
+    planner.sync(scene.data)
+    q = _run(ctl, q, planner.linear(q, Pose(end.pos + lift, start.quat), rng, allowed=push).q, 0.0)
+    planner.sync(scene.data)
     return q
 
 

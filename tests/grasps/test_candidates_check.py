@@ -97,7 +97,7 @@ def test_a_flat_object_is_pushed_over_the_tables_back_edge_and_lifted_by_the_ove
     planner.sync(d)
     body = m.body("object").id
     before, yaw_before = d.xpos[body].copy(), math.atan2(d.xmat[body][3], d.xmat[body][0])
-    _push_to_edge(scene, planner, JointController(scene), scene.arm_q(), np.random.default_rng(0), cfg)
+    _push_to_edge(scene, planner, JointController(scene), scene.arm_q(), np.random.default_rng(0), cfg, grasp)
     for _ in range(100):  # and it stays there, flat on the table
         mujoco.mj_step(m, d)
     moved = d.xpos[body] - before

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from mgdata.grasps.candidates import MAX_OPENING, CandidateConfig, candidates
-from mgdata.grasps.check import GraspCheckConfig, check_placement, needs_overhang
+from mgdata.grasps.check import GraspCheckConfig, check_placement
 from mgdata.grasps.db import Grasp
+from mgdata.grasps.edge import needs_overhang
 from mgdata.sim.assets import get_model, model_names
 from mgdata.sim.config import default_image_size
 from mgdata.sim.robot import FINGERTIP_REACH

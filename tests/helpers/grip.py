@@ -25,8 +25,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mgdata.grasps.check import GraspCheckConfig, _check_task, _push_to_edge, needs_overhang
+from mgdata.grasps.check import GraspCheckConfig, _check_task, _push_to_edge
 from mgdata.grasps.db import GraspDB
+from mgdata.grasps.edge import needs_overhang
 from mgdata.motion import AllowedContacts, Attachment, MotionPlanner, Pose, load_motion_config
 from mgdata.paths import grasps_dir
 from mgdata.sim import robot
@@ -126,7 +127,7 @@ def scripted_grip(model: str, grasp_id: str, *, close_steps: int = 20, hold_s: f
 
     q = scene.arm_q()
     if needs_overhang(grasp):
-        q = _push_to_edge(scene, planner, ctl, q, rng, cfg)
+        q = _push_to_edge(scene, planner, ctl, q, rng, cfg, grasp)
     world = grasp.world_matrix(m, d, "object")
     target = Pose.from_matrix(world)
     pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)

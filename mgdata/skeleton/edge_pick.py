@@ -1,0 +1,168 @@
+"""Edge pick: slide a flat object (a chopping board, a plate) over the table's back edge with the open hand,
+then pick it by a pinch of the overhang (:mod:`mgdata.grasps.edge`). Honest physics: the push is the fingers'
+contact, the hold their friction.
+
+The motion: open; above the push's start (free), ``push_clearance`` beyond the object's far side, the hand
+pointing down with its fingers spread along the edge; down to the fingertips ``push_tip_height`` above the
+table (linear); push towards the back edge (world -X) in a straight line as far as the chosen pinch's
+fingertips lack to clear the table's edge by ``edge_clearance``, measured on the live object
+(:func:`~mgdata.grasps.edge.shortfall`); let the arm settle; push again by what the object still lacks (the
+pushing arm lags its command; a push of less than ``push_tolerance`` stays put); rise; then the pick of
+:class:`~mgdata.skeleton.pick_place.PickPlace`: pre-grasp ``push_standoff`` beyond the edge (free),
+approach, settle, close, lift straight up by ``edge_lift``.
+
+The pinch is one of the object's valid edge grasps (``needs_overhang``) that comes in from behind the back
+edge and that the arm reaches once the object is pushed out (:meth:`EdgePick.feasibility`, the
+initial-state gate's check, records them as the fact ``grasps``); the draw picks among them.
+
+A skeleton declares ``EDGE_PICK_KEYS`` (+ its own) and plugs it in::
+
+    PICK = EdgePick("board")
+
+    def segments(self, ctx):
+        return PICK.segments(ctx)
+
+    def resolve(self, name, ctx):
+        return PICK.resolve(name, ctx) or super().resolve(name, ctx)
+
+    def feasibility(self, ctx, min_grasps):
+        return PICK.feasibility(ctx, min_grasps)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mgdata.grasps.db import Grasp
+from mgdata.grasps.edge import faces_the_back_edge, needs_overhang, push_start, shortfall
+from mgdata.motion import AllowedContacts, MotionFailure, Pose
+from mgdata.skeleton import segment as s
+from mgdata.skeleton.context import Context
+from mgdata.skeleton.grasp_choice import choose_grasp
+from mgdata.skeleton.pick_place import PickPlace
+from mgdata.skeleton.poses import backed_off, raised
+from mgdata.skeleton.skeleton import Infeasible
+from mgdata.skeleton.whatif import planner_what_if
+from mgdata.tasks.recipe_keys import Param, RecipeKeys
+
+EDGE_PICK_KEYS = RecipeKeys(params=(
+    Param("open_steps", int, "control steps to open the gripper", 1, 200),
+    Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
+    Param("close_steps", int, "control steps to close the gripper on the object", 1, 200),
+    Param("push_tip_height", float, "m above the table: the pushing fingertips", 0.002, 0.03),
+    Param("push_clearance", float, "m beyond the object's far side where the push starts", 0.005, 0.1),
+    Param("push_standoff", float, "m above the push's start, and back along the pinch's approach for its "
+          "pre-grasp", 0.03, 0.3),
+    Param("push_settle_steps", int, "control steps the arm settles after a push", 1, 200),
+    Param("push_tolerance", float, "m the object may still lack after the first push without a second",
+          0.0, 0.02),
+    Param("edge_clearance", float, "m the pinch's fingertips clear the table's edge", 0.0, 0.03),
+    Param("edge_lift", float, "m the pinched object is lifted", 0.02, 0.3),
+))
+"""The recipe ``[params]`` an edge pick reads."""
+
+PUSH_STEPS = ("pre_push", "push_start", "push", "push_more", "push_rise")
+"""Its runtime targets before the pick's (``pre_grasp``, ``grasp``, ``lift``)."""
+
+
+@dataclass(frozen=True)
+class EdgePick:
+    """Push ``obj`` over the table's back edge and pick it by an edge pinch (see the module docstring)."""
+
+    obj: str
+
+    @property
+    def _pick(self) -> PickPlace:
+        return PickPlace(self.obj)
+
+    def segments(self, ctx: Context) -> list[s.MotionSegment]:
+        """Open, the push (to the object's overhang) and the pick, as segments."""
+        p = ctx.params
+        push = (("hand", self.obj), (self.obj, "table"))
+        return [
+            s.gripper("push_open", "open", steps=p["open_steps"]),
+            s.free("pre_push", "pre_push"),
+            s.linear("push_start", "push_start"),
+            s.linear("push", "push", allow=push),
+            s.hold("push_settle", steps=p["push_settle_steps"]),
+            s.linear("push_more", "push_more", allow=push),
+            s.hold("push_more_settle", steps=p["push_settle_steps"]),
+            s.linear("push_rise", "push_rise", allow=push),
+            *self._pick.pick(p),
+        ]
+
+    def resolve(self, name: str, ctx: Context) -> Pose | None:
+        """The TCP pose of runtime target ``name`` (:data:`PUSH_STEPS`, ``pre_grasp``, ``grasp``, ``lift``),
+        from the live state, or None if it is not one."""
+        p = ctx.params
+        if name == "pre_push":
+            grasp = choose_grasp(ctx, self.obj, "grasps", lambda: self.reachable(ctx),
+                                 none=f"no edge pinch of {self.obj} is reachable over the table's back edge")
+            ctx.memo["grasp"], ctx.memo["grasp_id"] = grasp, grasp.id
+            start = push_start(ctx.scene, self.obj, p["push_tip_height"], p["push_clearance"])
+            ctx.memo["push_start"] = start
+            return raised(start, p["push_standoff"])
+        if name == "push_start":
+            return ctx.memo["push_start"]
+        if name in ("push", "push_more"):
+            lacking = shortfall(self._grasp_world(ctx), p["edge_clearance"])
+            if name == "push_more" and lacking < p["push_tolerance"]:
+                lacking = 0.0
+            back = p["push_clearance"] if name == "push" else 0.0
+            here = ctx.commanded_tcp()
+            return Pose(here.pos - np.array([max(lacking, 0.0) + back, 0.0, 0.0]), here.quat)
+        if name == "push_rise":
+            return raised(ctx.commanded_tcp(), p["push_standoff"])
+        if name in ("pre_grasp", "grasp"):
+            pose = Pose.from_matrix(self._grasp_world(ctx))
+            return pose if name == "grasp" else backed_off(pose, p["push_standoff"])
+        if name == "lift":
+            return raised(ctx.commanded_tcp(), p["edge_lift"])
+        return None
+
+    def _grasp_world(self, ctx: Context, obj: Pose | None = None) -> np.ndarray:
+        grasp: Grasp = ctx.memo["grasp"]
+        return (obj or ctx.object_pose(self.obj)).matrix() @ grasp.matrix()
+
+    def reachable(self, ctx: Context) -> tuple[Grasp, ...]:
+        """The object's edge pinches that come in from behind the table's back edge and whose pre-grasp and
+        grasp the arm reaches (collision-free, in the planner's copy of the scene) with the object slid as
+        far as each needs, from the state in ``ctx`` with a task-derived seed."""
+        p, planner, rng = ctx.params, ctx.planner, ctx.task_rng("edge_reach")
+        touch = AllowedContacts((("hand", self.obj),))
+        here = ctx.object_pose(self.obj)
+        out = []
+        for grasp in ctx.grasps.get(self.obj, ()):
+            world = here.matrix() @ grasp.matrix()
+            if not needs_overhang(grasp) or not faces_the_back_edge(world):
+                continue
+            lacking = max(shortfall(world, p["edge_clearance"]), 0.0)
+            out_there = Pose(here.pos - np.array([lacking, 0.0, 0.0]), here.quat)
+            pose = Pose.from_matrix(out_there.matrix() @ grasp.matrix())
+            with planner_what_if(ctx, objects={self.obj: out_there}):
+                try:
+                    q_pre = planner.ik(backed_off(pose, p["push_standoff"]), ctx.q_cmd, rng,
+                                       collision_free=True)
+                    planner.ik(pose, q_pre, rng, collision_free=True, allowed=touch)
+                except MotionFailure:
+                    continue
+            out.append(grasp)
+        return tuple(out)
+
+    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """The initial-state gate's check: at least ``min_grasps`` reachable edge pinches, and the push's
+        start reachable. Returns ``{"grasps": ids}``."""
+        reachable = self.reachable(ctx)
+        if len(reachable) < max(min_grasps, 1):
+            raise Infeasible("reach.grasps", f"{len(reachable)} edge pinches of {self.obj} are reachable "
+                                             f"over the table's back edge (needs {min_grasps})")
+        p = ctx.params
+        start = push_start(ctx.scene, self.obj, p["push_tip_height"], p["push_clearance"])
+        try:
+            ctx.planner.ik(raised(start, p["push_standoff"]), ctx.q_cmd, ctx.task_rng("edge_push"),
+                           collision_free=True)
+        except MotionFailure as fail:
+            raise Infeasible("reach.push", f"the push of {self.obj} cannot start ({fail.reason})") from fail
+        return {"grasps": tuple(g.id for g in reachable)}
