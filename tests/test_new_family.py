@@ -10,19 +10,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-from tests.helpers.repo import REPO, family_root
+from tests.helpers.repo import REPO, family_root, generate_in_root
 
 TOY = REPO / "tests" / "families" / "toy_lift"
-MGDATA = [str(Path(sys.executable).with_name("mgdata"))]
 
 
 def test_a_family_outside_mgdata_generates_a_kept_demo(tmp_path: Path) -> None:
-    root = family_root(tmp_path, "toy_lift")
-    env = {**{k: v for k, v in os.environ.items() if k != "MGDATA_ROOT"}, "LP_NUM_THREADS": "1"}
     out = tmp_path / "toy"
-    run = subprocess.run([*MGDATA, "--root", str(root), "generate", "--family", "toy_lift", "--n", "1",
-                          "--workers", "1", "--out", str(out)], capture_output=True, text=True, env=env,
-                         timeout=600)
+    run = generate_in_root(family_root(tmp_path, "toy_lift"), "toy_lift", 1, out)
     assert run.returncode == 0, run.stdout + run.stderr
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info["total_episodes"] == 1

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -20,3 +23,13 @@ def family_root(tmp: Path, family: str) -> Path:
     shutil.copytree(source / "skeletons", root / "skeletons")
     (root / "grasps").symlink_to(grasps_dir())
     return root
+
+
+def generate_in_root(root: Path, family: str, n: int, out: Path) -> subprocess.CompletedProcess:
+    """``mgdata --root root generate --family family --n n --workers 1 --out out`` (the environment's
+    ``MGDATA_ROOT`` dropped), as a user runs it."""
+    env = {**{k: v for k, v in os.environ.items() if k != "MGDATA_ROOT"}, "LP_NUM_THREADS": "1"}
+    mgdata = str(Path(sys.executable).with_name("mgdata"))
+    return subprocess.run([mgdata, "--root", str(root), "generate", "--family", family, "--n", str(n),
+                           "--workers", "1", "--out", str(out)], capture_output=True, text=True, env=env,
+                          timeout=600)

@@ -6,9 +6,6 @@ board lay, where it went, how it is held."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import mujoco
@@ -16,9 +13,7 @@ import numpy as np
 
 from mgdata.sim.world import TABLE_TOP_Z, TABLE_X
 from tests.helpers import rawdata
-from tests.helpers.repo import family_root
-
-MGDATA = [str(Path(sys.executable).with_name("mgdata"))]
+from tests.helpers.repo import family_root, generate_in_root
 
 
 def _near_end(m: mujoco.MjModel, d: mujoco.MjData, geom: int) -> float:
@@ -29,12 +24,8 @@ def _near_end(m: mujoco.MjModel, d: mujoco.MjData, geom: int) -> float:
 
 
 def test_a_board_lying_flat_is_pushed_over_the_back_edge_and_lifted_by_the_overhang(tmp_path: Path) -> None:
-    root = family_root(tmp_path, "toy_board")
-    env = {**{k: v for k, v in os.environ.items() if k != "MGDATA_ROOT"}, "LP_NUM_THREADS": "1"}
     out = tmp_path / "boards"
-    run = subprocess.run([*MGDATA, "--root", str(root), "generate", "--family", "toy_board", "--n", "2",
-                          "--workers", "1", "--out", str(out)], capture_output=True, text=True, env=env,
-                         timeout=600)
+    run = generate_in_root(family_root(tmp_path, "toy_board"), "toy_board", 2, out)
     assert run.returncode == 0, run.stdout + run.stderr
     info = json.loads((out / "meta" / "info.json").read_text())
     spec = info["features"]["sim.physics_state"]["info"]["mujoco_state_spec"]
