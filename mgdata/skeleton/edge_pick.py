@@ -15,7 +15,8 @@ The pinch is one of the object's valid edge grasps (``needs_overhang``) that com
 edge and that the arm reaches once the object is pushed out (:meth:`EdgePick.feasibility`, the
 initial-state gate's check, records them as the fact ``grasps``); the draw picks among them.
 
-A skeleton declares ``EDGE_PICK_KEYS`` (+ its own) and plugs it in::
+A skeleton declares ``PICK_KEYS + EDGE_PICK_KEYS`` (or ``PICK_AND_CARRY_KEYS + EDGE_PICK_KEYS``, + its own)
+and plugs it in::
 
     PICK = EdgePick("board")
 
@@ -48,9 +49,6 @@ from mgdata.skeleton.whatif import planner_what_if
 from mgdata.tasks.recipe_keys import Param, RecipeKeys
 
 EDGE_PICK_KEYS = RecipeKeys(params=(
-    Param("open_steps", int, "control steps to open the gripper", 1, 200),
-    Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
-    Param("close_steps", int, "control steps to close the gripper on the object", 1, 200),
     Param("push_tip_height", float, "m above the table: the pushing fingertips", 0.002, 0.03),
     Param("push_clearance", float, "m beyond the object's far side where the push starts", 0.005, 0.1),
     Param("push_standoff", float, "m above the push's start, and back along the pinch's approach for its "
@@ -61,7 +59,8 @@ EDGE_PICK_KEYS = RecipeKeys(params=(
     Param("edge_clearance", float, "m the pinch's fingertips clear the table's edge", 0.0, 0.03),
     Param("edge_lift", float, "m the pinched object is lifted", 0.02, 0.3),
 ))
-"""The recipe ``[params]`` an edge pick reads."""
+"""The recipe ``[params]`` an edge pick reads besides its pick's (``PICK_KEYS``, which ``PICK_AND_CARRY_KEYS``
+includes)."""
 
 PUSH_STEPS = ("pre_push", "push_start", "push", "push_more", "push_rise")
 """Its runtime targets before the pick's (``pre_grasp``, ``grasp``, ``lift``)."""

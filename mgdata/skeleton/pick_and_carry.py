@@ -38,7 +38,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import usable_grasps
-from mgdata.skeleton.pick_place import PickPlace
+from mgdata.skeleton.pick_place import PICK_KEYS, PickPlace
 from mgdata.skeleton.poses import about_z, backed_off, held_object, raised
 from mgdata.skeleton.skeleton import Infeasible
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
@@ -52,11 +52,8 @@ RIM_CLEARANCE = Param("rim_clearance", float, "m the raised grasp keeps the TCP 
                       "edge; 0: no cap)", 0.0, 0.1, default=0.0)
 """Optional, like :data:`GRASP_CYCLE`: recipes without it keep their grasps and their datasets' bytes."""
 
-PICK_AND_CARRY_KEYS = RecipeKeys(
+PICK_AND_CARRY_KEYS = PICK_KEYS + RecipeKeys(
     params=(
-        Param("open_steps", int, "control steps to open the gripper", 1, 200),
-        Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
-        Param("close_steps", int, "control steps to close the gripper on the object", 1, 200),
         Param("lift_margin", float, "m the held object's lowest point clears the tallest other object",
               0.0, 0.3),
         Param("carry_speed", float, "fraction of the planned speed while carrying", 0.01, 1.0),

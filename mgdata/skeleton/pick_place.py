@@ -21,6 +21,14 @@ from types import MappingProxyType
 from typing import Any
 
 from mgdata.skeleton import segment as s
+from mgdata.tasks.recipe_keys import Param, RecipeKeys
+
+PICK_KEYS = RecipeKeys(params=(
+    Param("open_steps", int, "control steps to open the gripper", 1, 200),
+    Param("grasp_settle_steps", int, "control steps holding the grasp pose before closing", 0, 200),
+    Param("close_steps", int, "control steps to close the gripper on the object", 1, 200),
+))
+"""The recipe ``[params]`` :meth:`PickPlace.pick` reads."""
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from mgdata.motion import Pose
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.edge_pick import EDGE_PICK_KEYS, EdgePick
+from mgdata.skeleton.pick_place import PICK_KEYS
 from mgdata.skeleton.skeleton import FamilySkeleton, register
 
 PICK = EdgePick("board")
@@ -23,7 +24,7 @@ class ToyBoardSkeleton(FamilySkeleton):
     """Lift the chopping board off the table."""
 
     name = "toy_board"
-    recipe_keys = EDGE_PICK_KEYS
+    recipe_keys = PICK_KEYS + EDGE_PICK_KEYS
 
     def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
         return [*PICK.segments(ctx), s.hold("hold", steps=60, gripper="close")]
