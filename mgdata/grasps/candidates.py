@@ -261,11 +261,11 @@ def edge_grasps(model: ObjectModel, cfg: CandidateConfig) -> list[Grasp]:
     if "rim_radius" in geo and float(geo.get("rim_slope", 0.0)) > math.radians(cfg.rim_follow_max_deg):
         rim, height, wall = float(geo["rim_radius"]), float(geo["height"]), float(geo["wall"])
         rise = math.pi / 2.0 - float(geo["rim_slope"])  # the rim's slope from horizontal
+        depth = cfg.edge_inset * math.tan(rise)  # the outer surface's drop from the rim's edge
         out = []
         for k in range(cfg.rim_angles):
             phi = 2.0 * math.pi * k / cfg.rim_angles
             radial = np.array([math.cos(phi), math.sin(phi), 0.0])
-            depth = cfg.edge_inset * math.tan(rise)  # the outer surface's drop from the rim's edge
             pos = radial * (rim - cfg.edge_inset) + up * (height - depth + wall * math.tan(rise) / 2.0)
             approach = -math.cos(rise) * radial - math.sin(rise) * up
             closing = -math.sin(rise) * radial + math.cos(rise) * up

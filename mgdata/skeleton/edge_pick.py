@@ -62,10 +62,6 @@ EDGE_PICK_KEYS = RecipeKeys(params=(
 """The recipe ``[params]`` an edge pick reads besides its pick's (``PICK_KEYS``, which ``PICK_AND_CARRY_KEYS``
 includes)."""
 
-PUSH_STEPS = ("pre_push", "push_start", "push", "push_more", "push_rise")
-"""Its runtime targets before the pick's (``pre_grasp``, ``grasp``, ``lift``)."""
-
-
 @dataclass(frozen=True)
 class EdgePick:
     """Push ``obj`` over the table's back edge and pick it by an edge pinch (see the module docstring)."""
@@ -93,8 +89,9 @@ class EdgePick:
         ]
 
     def resolve(self, name: str, ctx: Context) -> Pose | None:
-        """The TCP pose of runtime target ``name`` (:data:`PUSH_STEPS`, ``pre_grasp``, ``grasp``, ``lift``),
-        from the live state, or None if it is not one."""
+        """The TCP pose of runtime target ``name`` (``pre_push``, ``push_start``, ``push``, ``push_more``,
+        ``push_rise``, then the pick's ``pre_grasp``, ``grasp``, ``lift``), from the live state, or None if it
+        is not one."""
         p = ctx.params
         if name == "pre_push":
             grasp = choose_grasp(ctx, self.obj, "grasps", lambda: self.reachable(ctx),
@@ -121,9 +118,9 @@ class EdgePick:
             return raised(ctx.commanded_tcp(), p["edge_lift"])
         return None
 
-    def _grasp_world(self, ctx: Context, obj: Pose | None = None) -> np.ndarray:
+    def _grasp_world(self, ctx: Context) -> np.ndarray:
         grasp: Grasp = ctx.memo["grasp"]
-        return (obj or ctx.object_pose(self.obj)).matrix() @ grasp.matrix()
+        return ctx.object_pose(self.obj).matrix() @ grasp.matrix()
 
     def reachable(self, ctx: Context) -> tuple[Grasp, ...]:
         """The object's edge pinches that come in from behind the table's back edge and whose pre-grasp and
