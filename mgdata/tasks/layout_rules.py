@@ -23,6 +23,10 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     model_of = { role = "container", key = "lid" }   # the model named by an earlier role's model's
                                          # geometry[key] (a container's own lid); it must match `models`
     same_model = false                   # true: every instance of the role is one model (drawn once)
+    # a drawn model matching a glob here (the first that does) is placed by these keys merged over the
+    # role's: region or near (+ distance, bearing_deg), yaw, clearance, open (region and near roles only;
+    # each glob must match some of the role's models)
+    by_model."mug/*" = { region = { x = [0.40, 0.46], y = [0.20, 0.30] }, yaw = { rule = "away" } }
 
     [layout.goal]
     from = "target"                      # the goal centre is `distance` from this role, any bearing
@@ -32,6 +36,8 @@ the recipe lists them; a rule may refer only to roles listed before it. ::
     radius = 0.05                        # or { scale = 0.45, of = "target", min = 0.03 }: × the role's width
     clear_of = ["obstacle"]              # keep the goal's xy this far outside these roles' footprints
     clearance = 0.03
+    # keyed by the model drawn for `from`: distance, region, height, radius, clear_of, clearance
+    by_model."mug/*" = { distance = [0.0, 0.12], region = { x = [0.30, 0.50], y = [0.15, 0.35] } }
 
     [layout.names]                       # display names for prompt fields {role}: by model, kind or category
     candy = "piece of candy"
@@ -44,15 +50,23 @@ Example::
 
 from __future__ import annotations
 
+import fnmatch
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from mgdata.errors import RecipeError
 
 PLACEMENTS: tuple[str, ...] = ("region", "near", "inside", "on")
 YAW_RULES: tuple[str, ...] = ("away", "toward", "uniform", "aligned", "fixed")
+ROLE_OVERRIDES: tuple[str, ...] = ("region", "near", "distance", "bearing_deg", "yaw", "clearance", "open")
+"""The keys a role's ``by_model`` entry may set."""
+GOAL_OVERRIDES: tuple[str, ...] = ("distance", "region", "height", "radius", "clear_of", "clearance")
+"""The keys the goal's ``by_model`` entry may set."""
+FIXED_BY_MODEL: tuple[str, ...] = ("models", "count", "inside", "on", "model_of", "same_model", "from",
+                                   "by_model")
+"""Keys a ``by_model`` entry may not set: they decide which models are drawn, or where from."""
 Range = tuple[float, float]
 
 
@@ -85,6 +99,7 @@ class Role:
         open: articulation opening fraction, if the model has one.
         model_of: (role, key): the model is ``geometry[key]`` of that earlier role's model (its mate).
         same_model: every instance is the model drawn for the first one (a stack of identical objects).
+        by_model: (glob, rule) overrides for drawn models matching the glob; see :meth:`for_model`.
     """
 
     name: str
@@ -100,6 +115,11 @@ class Role:
     open: float | None = None
     model_of: tuple[str, str] | None = None
     same_model: bool = False
+    by_model: tuple[tuple[str, Role], ...] = ()
+
+    def for_model(self, model: str) -> Role:
+        """The rule placing ``model``: the first ``by_model`` override whose glob matches it, else this."""
+        return next((rule for glob, rule in self.by_model if fnmatch.fnmatchcase(model, glob)), self)
 
 
 @dataclass(frozen=True)
@@ -114,7 +134,8 @@ class Radius:
 
 @dataclass(frozen=True)
 class GoalRule:
-    """Where the goal sphere goes (see the module docstring)."""
+    """Where the goal sphere goes (see the module docstring); ``by_model``: (glob, rule) overrides keyed by
+    the model drawn for the ``origin`` role (see :meth:`for_model`)."""
 
     origin: str
     distance: Range
@@ -123,6 +144,11 @@ class GoalRule:
     radius: Radius
     clear_of: tuple[str, ...] = ()
     clearance: float = 0.0
+    by_model: tuple[tuple[str, GoalRule], ...] = ()
+
+    def for_model(self, model: str) -> GoalRule:
+        """The rule when ``model`` was drawn for the origin: the first matching override, else this."""
+        return next((rule for glob, rule in self.by_model if fnmatch.fnmatchcase(model, glob)), self)
 
 
 @dataclass(frozen=True)
@@ -169,7 +195,7 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     if not name.isidentifier():
         raise RecipeError(f"{where}: a role name must be an identifier (letters, digits, _)")
     _known(table, ("models", "count", *PLACEMENTS, "distance", "bearing_deg", "yaw", "clearance", "open",
-                   "model_of", "same_model"), where)
+                   "model_of", "same_model", "by_model"), where)
     models = table.get("models")
     if isinstance(models, str):
         models = [models]
@@ -210,9 +236,45 @@ def _role(name: str, table: Any, where: str, earlier: list[str]) -> Role:
     same = table.get("same_model", False)
     if not isinstance(same, bool):
         raise RecipeError(f"{where} same_model = {same!r}: expected true or false")
-    return Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
+    role = Role(name, tuple(models), (int(lo_hi[0]), int(lo_hi[1])), placement, region, host, distance,
                 bearing, yaw, clearance, opened,
                 _model_of(table.get("model_of"), f"{where} model_of", earlier), same)
+    overrides = _overrides(table, ROLE_OVERRIDES, where)
+    if overrides and placement not in ("region", "near"):
+        raise RecipeError(f"{where} by_model: only a role placed by region or near can vary by model "
+                          f"(this one is placed {placement})")
+    rules = []
+    for glob, extra in overrides:
+        # the override's placement replaces the role's: region drops near's keys, near drops region
+        dropped = {"region": ("near", "distance", "bearing_deg"), "near": ("region",)}
+        gone = {k for key, keys in dropped.items() if key in extra for k in keys}
+        base = {k: v for k, v in table.items() if k != "by_model" and k not in gone}
+        rules.append((glob, _role(name, {**base, **extra}, f'{where} by_model."{glob}"', earlier)))
+    return replace(role, by_model=tuple(rules))
+
+
+def _overrides(table: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> list[tuple[str, Any]]:
+    """The ``by_model`` entries of ``table`` as (glob, override table), their keys checked against
+    ``allowed``."""
+    raw = table.get("by_model", {})
+    if not isinstance(raw, Mapping):
+        raise RecipeError(f'{where} by_model: expected a table of model glob = {{ keys to override }}, e.g. '
+                          f'by_model."board/*" = {{ ... }}')
+    out = []
+    for glob, extra in raw.items():
+        at = f'{where} by_model."{glob}"'
+        if not glob:
+            raise RecipeError(f"{where} by_model: a model glob must not be empty")
+        if not isinstance(extra, Mapping):
+            raise RecipeError(f"{at} = {extra!r}: expected a table of keys to override "
+                              f"({', '.join(allowed)})")
+        fixed = sorted(k for k in extra if k in FIXED_BY_MODEL)
+        if fixed:
+            raise RecipeError(f"{at}: {', '.join(fixed)} cannot vary by model (an override may set "
+                              f"{', '.join(allowed)})")
+        _known(extra, allowed, at)
+        out.append((str(glob), extra))
+    return out
 
 
 def _model_of(raw: Any, where: str, earlier: list[str]) -> tuple[str, str] | None:
@@ -229,7 +291,7 @@ def _model_of(raw: Any, where: str, earlier: list[str]) -> tuple[str, str] | Non
 def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
     if not isinstance(table, Mapping):
         raise RecipeError(f"{where}: expected a table")
-    _known(table, ("from", "distance", "region", "height", "radius", "clear_of", "clearance"), where)
+    _known(table, ("from", *GOAL_OVERRIDES, "by_model"), where)
     for key in ("from", "distance", "region", "height", "radius"):
         if key not in table:
             raise RecipeError(f"{where}: missing key {key!r}")
@@ -250,10 +312,13 @@ def _goal(table: Any, where: str, roles: set[str]) -> GoalRule:
         radius = Radius(None, scale, raw_radius["of"], least)
     else:
         radius = Radius(_number(raw_radius, f"{where} radius", 0.005, 0.5))
-    return GoalRule(origin, _range(table["distance"], f"{where} distance", 0.0, 2.0),
+    rule = GoalRule(origin, _range(table["distance"], f"{where} distance", 0.0, 2.0),
                     _region(table["region"], f"{where} region"),
                     _range(table["height"], f"{where} height", 0.0, 1.0), radius, tuple(clear_of),
                     _number(table.get("clearance", 0.0), f"{where} clearance", 0.0, 0.5))
+    base = {k: v for k, v in table.items() if k != "by_model"}
+    return replace(rule, by_model=tuple((glob, _goal({**base, **extra}, f'{where} by_model."{glob}"', roles))
+                                        for glob, extra in _overrides(table, GOAL_OVERRIDES, where)))
 
 
 def _yaw(raw: Any, where: str, host: str | None) -> Yaw:

@@ -5,7 +5,9 @@ Objects stand upright on the table (z = table top) unless they go ``inside`` a h
 are the objects' xy bounding circles (from their collision geoms); two objects on the table never come closer
 than the sum of their radii plus the larger of their clearances. A rule that cannot be met in ``tries``
 position draws raises :class:`LayoutRejected` naming it: the caller draws the task again
-(``mgdata.engine.init_gate``).
+(``mgdata.engine.init_gate``). A role's ``by_model`` override places the models it matches
+(``Role.for_model``); the goal's is chosen by the model drawn for its ``from`` role. Overrides draw no extra
+random numbers.
 
 Example::
 
@@ -109,16 +111,20 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
     floor: list[tuple[ObjectPlacement, float, float]] = []  # on the table: placement, radius, clearance
     articulation: dict[str, float] = {}
     names: dict[str, str] = {}
+    pools: dict[str, list[str]] = {}  # role -> the library models its globs match
     for role in layout.roles:
         at = f"{where} roles.{role.name}"
         count = int(rng.integers(role.count[0], role.count[1] + 1))
-        pool = _hosts(layout, role, matching_models(role.models, at), at)
+        pools[role.name] = matching_models(role.models, at)
+        _check_overrides(role.by_model, pools[role.name], f"{at} by_model", role)
+        pool = _hosts(layout, role, pools[role.name], at)
         if role.model_of is not None:
             pool = [_mate(pool, by_role[role.model_of[0]][0].model, role.model_of[1], at)]
         placed_here: list[ObjectPlacement] = []
         for i in range(count):
             name = role.name if role.count == (1, 1) else f"{role.name}_{i}"
             host = by_role[role.host][0] if role.host else None
+            rule = role  # inside/on: one rule for every model (by_model is for region and near roles)
             if role.placement == "on" and placed_here:
                 host = placed_here[-1]  # a stack: each instance on the one before
             if role.placement == "inside":
@@ -135,16 +141,31 @@ def place(layout: Layout, rng: np.random.Generator, where: str = "[layout]") -> 
                 obj = ObjectPlacement(name, model, pos, _yaw(role, pos, host, rng))
             else:
                 model = _draw(pool, placed_here, role, rng)
-                obj = _on_table(role, name, model, host, floor, layout.tries, rng, at)
-                floor.append((obj, footprint_radius(model), role.clearance))
+                rule = role.for_model(model)
+                host = by_role[rule.host][0] if rule.host else None
+                obj = _on_table(rule, name, model, host, floor, layout.tries, rng, at)
+                floor.append((obj, footprint_radius(model), rule.clearance))
             objects.append(obj)
             placed_here.append(obj)
-            if role.open is not None and get_model(model).articulation is not None:
-                articulation[name] = role.open
+            if rule.open is not None and get_model(model).articulation is not None:
+                articulation[name] = rule.open
         by_role[role.name] = placed_here
         names[role.name] = display_name(placed_here[0].model, dict(layout.names))
-    goal = _goal(layout, by_role, rng, where) if layout.goal else None
+    goal = None
+    if layout.goal is not None:
+        origin = layout.goal.origin
+        _check_overrides(layout.goal.by_model, pools[origin], f"{where} goal by_model", layout.role(origin))
+        goal = _goal(layout, by_role, rng, where)
     return Placed(tuple(objects), goal, articulation, names)
+
+
+def _check_overrides(by_model: tuple[tuple[str, object], ...], models: list[str], at: str,
+                     role: Role) -> None:
+    """Every ``by_model`` glob matches one of ``models`` (those of ``role``), else a RecipeError naming it."""
+    for glob, _ in by_model:
+        if not any(fnmatch.fnmatchcase(m, glob) for m in models):
+            raise RecipeError(f'{at}."{glob}" matches none of role {role.name}\'s models '
+                              f'({", ".join(role.models)})')
 
 
 def _draw(pool: list[str], placed_here: list[ObjectPlacement], role: Role, rng: np.random.Generator) -> str:
@@ -250,9 +271,9 @@ def _yaw(role: Role, pos: tuple[float, float, float], host: ObjectPlacement | No
 
 def _goal(layout: Layout, by_role: dict[str, list[ObjectPlacement]], rng: np.random.Generator,
           where: str) -> GoalRegion:
-    rule = layout.goal
-    assert rule is not None
-    origin = by_role[rule.origin][0]
+    assert layout.goal is not None
+    origin = by_role[layout.goal.origin][0]
+    rule = layout.goal.for_model(origin.model)
     rad = rule.radius
     if rad.value is not None:
         radius = rad.value

@@ -321,6 +321,8 @@ def _check_clear(task: TaskSpec, recipe: Recipe, instances: dict[str, list[str]]
     rule = recipe.layout.goal
     if task.goal is None or rule is None:
         return
+    if instances.get(rule.origin):
+        rule = rule.for_model(task.object(instances[rule.origin][0]).model)
     for role in rule.clear_of:
         for n in instances.get(role, []):
             o = task.object(n)
