@@ -32,6 +32,7 @@ and plugs it in::
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,7 @@ import numpy as np
 from mgdata.grasps.db import Grasp
 from mgdata.grasps.edge import faces_the_back_edge, needs_overhang, push_start, shortfall
 from mgdata.motion import AllowedContacts, MotionFailure, Pose
+from mgdata.sim.robot import ROOT_BODY
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
@@ -122,10 +124,12 @@ class EdgePick:
         grasp: Grasp = ctx.memo["grasp"]
         return ctx.object_pose(self.obj).matrix() @ grasp.matrix()
 
-    def reachable(self, ctx: Context) -> tuple[Grasp, ...]:
+    def reachable(self, ctx: Context, moved: Mapping[str, Pose | np.ndarray] | None = None
+                  ) -> tuple[Grasp, ...]:
         """The object's edge pinches that come in from behind the table's back edge and whose pre-grasp and
         grasp the arm reaches (collision-free, in the planner's copy of the scene) with the object slid as
-        far as each needs, from the state in ``ctx`` with a task-derived seed."""
+        far as each needs, from the state in ``ctx`` with a task-derived seed; ``moved``: other objects
+        elsewhere in that copy (a stack already taken off the object)."""
         p, planner, rng = ctx.params, ctx.planner, ctx.task_rng("edge_reach")
         touch = AllowedContacts((("hand", self.obj),))
         here = ctx.object_pose(self.obj)
@@ -137,7 +141,7 @@ class EdgePick:
             lacking = max(shortfall(world, p["edge_clearance"]), 0.0)
             out_there = Pose(here.pos - np.array([lacking, 0.0, 0.0]), here.quat)
             pose = Pose.from_matrix(out_there.matrix() @ grasp.matrix())
-            with planner_what_if(ctx, objects={self.obj: out_there}):
+            with planner_what_if(ctx, objects={**(moved or {}), self.obj: out_there}):
                 try:
                     q_pre = planner.ik(backed_off(pose, p["push_standoff"]), ctx.q_cmd, rng,
                                        collision_free=True)
@@ -147,18 +151,38 @@ class EdgePick:
             out.append(grasp)
         return tuple(out)
 
-    def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+    def feasibility(self, ctx: Context, min_grasps: int, moved: Mapping[str, Pose | np.ndarray] | None = None,
+                    clearance: float = 0.0) -> dict[str, object]:
         """The initial-state gate's check: at least ``min_grasps`` reachable edge pinches, and the push's
-        start reachable. Returns ``{"grasps": ids}``."""
-        reachable = self.reachable(ctx)
+        start reachable from above, in a collision-free straight line down that keeps the arm ``clearance`` m
+        from everything but the table and the object (``moved`` as in :meth:`reachable`).
+        Returns ``{"grasps": ids}``; the arm configuration found above the push's start seeds the attempt's
+        IK for ``pre_push`` (``ctx.q_hints``), so that a check made when the attempt starts is the line it
+        runs."""
+        reachable = self.reachable(ctx, moved)
         if len(reachable) < max(min_grasps, 1):
             raise Infeasible("reach.grasps", f"{len(reachable)} edge pinches of {self.obj} are reachable "
                                              f"over the table's back edge (needs {min_grasps})")
         p = ctx.params
         start = push_start(ctx.scene, self.obj, p["push_tip_height"], p["push_clearance"])
         try:
-            ctx.planner.ik(raised(start, p["push_standoff"]), ctx.q_cmd, ctx.task_rng("edge_push"),
-                           collision_free=True)
+            with planner_what_if(ctx, objects=moved):
+                rng = ctx.task_rng("edge_push")
+                above = ctx.planner.ik(raised(start, p["push_standoff"]), ctx.q_cmd, rng, collision_free=True)
+                line = ctx.planner.line(above, start, rng)
+                if clearance > 0.0:
+                    self._keeps_clear(ctx, line.q, clearance)
+            ctx.q_hints["pre_push"] = above
         except MotionFailure as fail:
             raise Infeasible("reach.push", f"the push of {self.obj} cannot start ({fail.reason})") from fail
         return {"grasps": tuple(g.id for g in reachable)}
+
+    def _keeps_clear(self, ctx: Context, path: np.ndarray, clearance: float) -> None:
+        """Raise ``plan_fail`` unless the arm at every configuration of ``path`` keeps ``clearance`` m from
+        everything but the table and the object."""
+        checker = ctx.planner.checker
+        checker.configure(AllowedContacts(((ROOT_BODY, "table"), (ROOT_BODY, self.obj))), None, clearance)
+        bad = next((q for q in path if not checker.valid(q)), None)
+        if bad is not None:
+            raise MotionFailure("plan_fail", f"the way down to the push comes within {clearance:g} m of "
+                                             f"something ({checker.explain(bad)})")
