@@ -5,18 +5,20 @@ The scene (``recipes/stack.toml``): a ``target`` on the table with ``stack_0`` (
 destination pile beside the pack (a top-down grasp shallow enough not to touch the object below, lift until it
 clears everything, carry over the pile, lower it to ``place_gap`` above the pile's top, release, back off),
 then pick the target (a box by its top, a tray by a pinch on one wall), lift it, carry it level in a straight
-line into the goal and hold it there at rest. Nothing in the stack or the target may fall or tip past 30° (the
-spec).
+line into the goal and hold it there at rest. A chopping board lying flat, whose every grasp is an edge pinch,
+is first pushed over the table's back edge and pinched there (:mod:`mgdata.skeleton.edge_pick`), then carried
+likewise. Nothing in the stack or the target may fall or tip past 30° (the spec).
 
 The pile's spot is chosen from the live scene when the attempt starts (and checked by the initial-state gate):
 spots on rings around the target ``pile_gap`` and more beyond the pack's footprint, at ``pile_bearings``
 bearings (first those off the line the open hand spans along its closing axis when it grasps the target, then
 those beside the pack as seen from the robot rather than in front of or behind it), inside the ``pile_x`` ×
-``pile_y`` region (robot base frame, m), clear of every other object and of the goal, where a straight-down
-hand reaches both the first object's place and the pile's final height plus the pre-grasp standoff (IK, the
-arm ``pile_arm_clearance`` clear of everything, the pack still standing), and the target keeps a reachable
-grasp with the whole stack piled there (checked in the planner's copy of the scene). On the nearest ring that
-has one, the attempt's draw picks among the preferred ones. No spot is listed per task.
+``pile_y`` region (robot base frame, m; ``edge_pile_x`` × ``edge_pile_y`` for a board), clear of every other
+object and of the goal, where a straight-down hand reaches both the first object's place and the pile's final
+height plus the pre-grasp standoff (IK, the arm ``pile_arm_clearance`` clear of everything, the pack still
+standing), and the target keeps a reachable grasp (a board: its push and a pinch) with the whole stack piled
+there (checked in the planner's copy of the scene). On the nearest ring that has one, the attempt's draw picks
+among the preferred ones. No spot is listed per task.
 
 Success also rejects a multi-grab: a pick (from its pre-grasp to the next pick's, or to the end for the
 target) that moved any object other than the picked one more than ``multi_grab_distance`` in xy.
@@ -30,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
+from mgdata.grasps.edge import needs_overhang, shortfall
 from mgdata.motion import AllowedContacts, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
@@ -37,6 +40,7 @@ from mgdata.sim.world import TABLE_TOP_Z
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
+from mgdata.skeleton.edge_pick import EDGE_PICK_KEYS, EdgePick
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.poses import about_z, held_object, horizontal_unit, raised
 from mgdata.skeleton.reach import reaches_down
@@ -48,6 +52,8 @@ from mgdata.tasks.placer import footprint_radius
 TARGET = "target"
 STACK = "stack_"
 TOP_DOWN = ("top_down",)
+EDGE = EdgePick(TARGET)
+"""The target's pick when it is edge-picked (:func:`_edge_picked`)."""
 
 
 @register
@@ -55,13 +61,17 @@ class StackSkeleton(FamilySkeleton):
     """The stack family's demonstration (see the module docstring)."""
 
     name = "stack"
-    recipe_keys = PICK_AND_CARRY_KEYS + RecipeKeys(params=(
+    recipe_keys = PICK_AND_CARRY_KEYS + EDGE_PICK_KEYS + RecipeKeys(params=(
         Param("pile_gap", float, "m between the pack's footprint and the pile's, edge to edge", 0.0, 0.3),
         Param("pile_rings", int, "rings of pile spots tried around the target", 1, 10),
         Param("pile_ring_step", float, "m between two rings of pile spots", 0.005, 0.2),
         Param("pile_bearings", int, "pile spots per ring (evenly spaced bearings)", 1, 72),
         Param("pile_x", tuple, "x range (m, robot base frame) the pile's centre stays in", -1.0, 1.0),
         Param("pile_y", tuple, "y range (m, robot base frame) the pile's centre stays in", -1.0, 1.0),
+        Param("edge_pile_x", tuple, "x range (m) the pile's centre stays in when the target is edge-picked",
+              -1.0, 1.0),
+        Param("edge_pile_y", tuple, "y range (m) the pile's centre stays in when the target is edge-picked",
+              -1.0, 1.0),
         Param("pile_approach", float, "m above its place pose from which an object is lowered onto the pile",
               0.0, 0.3),
         Param("place_gap", float, "m above the pile's top at which an object is released", 0.0, 0.05),
@@ -79,6 +89,8 @@ class StackSkeleton(FamilySkeleton):
         segs: list[s.MotionSegment] = []
         for pick in self._unstack(ctx):
             segs += self._onto_pile(ctx, pick)
+        if _edge_picked(ctx):
+            return [*segs, *EDGE.segments(ctx), *self._target().carry_segments(ctx)]
         return [*segs, *self._target().segments(ctx)]
 
     @staticmethod
@@ -90,7 +102,7 @@ class StackSkeleton(FamilySkeleton):
                 *pick.place_segments(pick.name("on_pile"), retreat_steps=ctx.params["release_steps"])]
 
     def resolve(self, name: str, ctx: Context) -> Pose:
-        if name.endswith("pre_grasp"):
+        if name.endswith("pre_grasp") or name == "pre_push":
             self._start_pick(ctx, name)
         for pick in self._unstack(ctx):
             if name in (pick.name("over_pile"), pick.name("on_pile")):
@@ -98,6 +110,8 @@ class StackSkeleton(FamilySkeleton):
             pose = pick.resolve(name, ctx)
             if pose is not None:
                 return pose
+        if _edge_picked(ctx):  # the edge pick records the episode's grasp itself
+            return EDGE.resolve(name, ctx) or self._target().resolve(name, ctx) or super().resolve(name, ctx)
         pose = self._target().resolve(name, ctx)
         if pose is None:
             return super().resolve(name, ctx)
@@ -115,9 +129,28 @@ class StackSkeleton(FamilySkeleton):
         for i, obj in enumerate(stack):
             if not PickAndCarry(obj, riders=stack[i + 1:], grasp_filter=TOP_DOWN).reachable_grasps(ctx):
                 raise Infeasible("reach.stack", f"no top-down grasp of {obj} is reachable")
-        facts = PickAndCarry(TARGET, riders=stack).feasibility(ctx, min_grasps)
+        facts = (self._edge_feasibility(ctx, min_grasps) if _edge_picked(ctx)
+                 else PickAndCarry(TARGET, riders=stack).feasibility(ctx, min_grasps))
         if self._pile_spot(ctx, None) is None:
             raise Infeasible("reach.pile", "no reachable pile spot beside the pack clear of the goal")
+        return facts
+
+    def _edge_feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
+        """An edge-picked target: reachable pinches and push (the stack already taken off, out of the way)
+        and, from the first pinch, the goal reachable holding it."""
+        facts = EDGE.feasibility(ctx, min_grasps, moved=_stack_away(ctx))
+        grasp = next(g for g in ctx.grasps[TARGET] if g.id == facts["grasps"][0])
+        here = ctx.object_pose(TARGET)
+        pushed = Pose(here.pos - np.array([max(shortfall(here.matrix() @ grasp.matrix(),
+                                                         ctx.param("edge_clearance")), 0.0), 0.0, 0.0]),
+                      here.quat)
+        tcp, lift = Pose.from_matrix(pushed.matrix() @ grasp.matrix()), ctx.param("edge_lift")
+        with planner_what_if(ctx, objects=_stack_away(ctx)):
+            at_goal = self._target().goal_target(ctx, tcp=raised(tcp, lift), obj=raised(pushed, lift),
+                                                 strict=True)
+        if at_goal is None:
+            raise Infeasible("reach.goal", f"no turn of {TARGET} about the vertical "
+                                           f"({list(ctx.param('carry_yaws_deg'))} deg) reaches the goal")
         return facts
 
     # -- the picks ---------------------------------------------------------------------------------------
@@ -205,7 +238,8 @@ class StackSkeleton(FamilySkeleton):
         target = ctx.object_pose(TARGET).matrix()
         hand = [horizontal_unit((target @ g.matrix())[:3, 1]) for g in ctx.grasps[TARGET]]
         low = TABLE_TOP_Z + min(scene.object_model(n).size[2] for n in stack) / 2.0
-        box_x, box_y = ctx.param("pile_x"), ctx.param("pile_y")
+        region = "edge_pile" if _edge_picked(ctx) else "pile"
+        box_x, box_y = ctx.param(f"{region}_x"), ctx.param(f"{region}_y")
         for k in range(ctx.param("pile_rings")):
             d = r_pack + r_pile + gap + k * ctx.param("pile_ring_step")
             spots = [xy for xy in ring(target_xy, d, ctx.param("pile_bearings"))
@@ -236,8 +270,27 @@ class StackSkeleton(FamilySkeleton):
         for name in reversed(_stack(ctx)):  # the top one goes first, at the bottom of the pile
             piled[name] = np.array([xy[0], xy[1], z])
             z += ctx.scene.object_model(name).size[2]
+        if _edge_picked(ctx):
+            try:
+                EDGE.feasibility(ctx, 1, moved=piled, clearance=ctx.param("pile_arm_clearance"))
+            except Infeasible:
+                return False
+            return True
         with planner_what_if(ctx, objects=piled):
             return bool(PickAndCarry(TARGET).reachable_grasps(ctx))
+
+
+def _edge_picked(ctx: Context) -> bool:
+    """Is the target picked by an edge pinch (pushed over the table's back edge first)? A chopping board
+    lying flat: every valid grasp of it needs an overhang."""
+    grasps = ctx.grasps.get(TARGET, ())
+    return bool(grasps) and all(needs_overhang(g) for g in grasps)
+
+
+def _stack_away(ctx: Context) -> dict[str, np.ndarray]:
+    """The stacked objects out of the arm's way (for the target's checks before they are unstacked): far
+    below the table."""
+    return {name: np.array([0.0, 0.0, -1.0 - k]) for k, name in enumerate(_stack(ctx))}
 
 
 def _objects(ctx: Context) -> list[str]:

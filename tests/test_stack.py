@@ -22,6 +22,7 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.world import TABLE_X
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PickAndCarry
@@ -137,7 +138,7 @@ class _TargetFirst(StackSkeleton):
 
 def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
     recipe = load_family_recipe("stack")
-    result, frames, meta, probe = probed_attempt(base_task(recipe, 2), recipe, grasps, _TargetFirst(), _Probe)
+    result, frames, meta, probe = probed_attempt(base_task(recipe, 5), recipe, grasps, _TargetFirst(), _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 30.0)
     assert result.t_violation["stack_stays_upright"] == tipped == len(frames) - 1
@@ -209,9 +210,9 @@ class _TrayProbe(JointController):
 
 
 def test_a_tray_target_is_pinched_on_its_wall_and_carried_level_into_the_goal(grasps: GraspDB) -> None:
-    """Task 15: tray/flat_00 pinched at its short end (a free carry turned it 20° in the pinch)."""
+    """Task 17: a tray pinched on one wall and carried level (a free carry turned one 20° in the pinch)."""
     recipe = load_family_recipe("stack")
-    task = base_task(recipe, 15)
+    task = base_task(recipe, 17)
     assert task.object("target").model.startswith("tray/")
     result, _, meta, probe = probed_attempt(task, recipe, grasps, StackSkeleton(), _TrayProbe)
     assert result.kept and meta.kept, (result.stage, result.reason)
@@ -224,3 +225,43 @@ def test_a_tray_target_is_pinched_on_its_wall_and_carried_level_into_the_goal(gr
     assert all(fingers == 2 for _, _, fingers, _ in lifted[-recipe.tasks.hold_steps:])
     assert max(tilt for tilt, _, _, _ in lifted) <= 10.0  # level (the issue's bound), from raw xquat
     assert np.linalg.norm(probe.centre - np.asarray(task.goal.pos)) < task.goal.radius  # its box centre
+
+
+# --- a chopping board as the target -------------------------------------------------------------------------
+class _BoardProbe(_TrayProbe):
+    """The tray probe's rows, plus the board's near end (its smallest world x, from its box geom's corners)
+    after every control step."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.geom = scene.model.geom("target/body").id
+        self.near_end: list[float] = []
+
+    def step(self) -> None:
+        super().step()
+        m, d = self.scene.model, self.scene.data
+        corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+        local = corners * m.geom_size[self.geom]
+        world = d.geom_xpos[self.geom] + local @ d.geom_xmat[self.geom].reshape(3, 3).T
+        self.near_end.append(float(world[:, 0].min()))
+
+
+def test_a_board_target_is_pushed_over_the_back_edge_pinched_and_lifted_level_into_the_goal(
+        grasps: GraspDB) -> None:
+    """Task 1: a chopping board under three boxes. The boxes go to the pile, the board slides over the table's
+    back edge and is held by a pinch of its overhang alone, level, in the goal."""
+    recipe = load_family_recipe("stack")
+    task = base_task(recipe, 1)
+    assert task.object("target").model.startswith("board/")
+    result, _, meta, probe = probed_attempt(task, recipe, grasps, StackSkeleton(), _BoardProbe)
+    assert result.kept and meta.kept, (result.stage, result.reason)
+    assert result.grasp_id.startswith("edge_")
+    assert probe.near_end[0] > TABLE_X[0]  # it starts lying wholly on the table
+    z0 = probe.rows[0][1]
+    leaves = next(i for i, row in enumerate(probe.rows) if row[1] > z0 + 0.005)
+    assert probe.near_end[leaves] < TABLE_X[0]  # pushed over the edge before it leaves the table
+    lifted = [row for row in probe.rows if row[1] > z0 + 0.02]
+    assert len(lifted) > 50
+    assert all(fingers == 2 and others == 0 for _, _, fingers, others in lifted)  # the pinch alone holds it
+    assert max(tilt for tilt, _, _, _ in probe.rows) <= 10.0  # level all the way (the issue's bound)
+    assert np.linalg.norm(probe.centre - np.asarray(task.goal.pos)) < task.goal.radius
