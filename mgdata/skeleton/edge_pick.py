@@ -33,6 +33,7 @@ and plugs it in::
 from __future__ import annotations
 
 from collections.abc import Mapping
+from contextlib import suppress
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,7 +41,7 @@ import numpy as np
 from mgdata.grasps.db import Grasp
 from mgdata.grasps.edge import faces_the_back_edge, needs_overhang, push_start, shortfall
 from mgdata.motion import AllowedContacts, MotionFailure, Pose
-from mgdata.sim.robot import ROOT_BODY
+from mgdata.sim.robot import HOME_Q, ROOT_BODY
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
@@ -115,10 +116,22 @@ class EdgePick:
             return raised(ctx.commanded_tcp(), p["push_standoff"])
         if name in ("pre_grasp", "grasp"):
             pose = Pose.from_matrix(self._grasp_world(ctx))
-            return pose if name == "grasp" else backed_off(pose, p["push_standoff"])
+            if name == "grasp":
+                return pose
+            pre = backed_off(pose, p["push_standoff"])
+            self._seed_from_home(ctx, name, pre)
+            return pre
         if name == "lift":
             return raised(ctx.commanded_tcp(), p["edge_lift"])
         return None
+
+    @staticmethod
+    def _seed_from_home(ctx: Context, name: str, pose: Pose) -> None:
+        """Seed the attempt's IK for ``name`` with a solution from the home posture, as :meth:`reachable`
+        found it: from where the push leaves the arm, a pinch with the hand rolled half a turn is often out
+        of the solver's reach (``ik_fail``, residual 0.3 m)."""
+        with suppress(MotionFailure):
+            ctx.q_hints[name] = ctx.planner.ik(pose, HOME_Q, ctx.task_rng("edge_reach"), collision_free=True)
 
     def _grasp_world(self, ctx: Context) -> np.ndarray:
         grasp: Grasp = ctx.memo["grasp"]
