@@ -32,7 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
-from mgdata.grasps.edge import needs_overhang, shortfall
+from mgdata.grasps.edge import needs_overhang
 from mgdata.motion import AllowedContacts, Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import ROOT_BODY
@@ -140,10 +140,7 @@ class StackSkeleton(FamilySkeleton):
         and, from the first pinch, the goal reachable holding it."""
         facts = EDGE.feasibility(ctx, min_grasps, moved=_stack_away(ctx))
         grasp = next(g for g in ctx.grasps[TARGET] if g.id == facts["grasps"][0])
-        here = ctx.object_pose(TARGET)
-        pushed = Pose(here.pos - np.array([max(shortfall(here.matrix() @ grasp.matrix(),
-                                                         ctx.param("edge_clearance")), 0.0), 0.0, 0.0]),
-                      here.quat)
+        pushed = EDGE.pushed(ctx, grasp)
         tcp, lift = Pose.from_matrix(pushed.matrix() @ grasp.matrix()), ctx.param("edge_lift")
         with planner_what_if(ctx, objects=_stack_away(ctx)):
             at_goal = self._target().goal_target(ctx, tcp=raised(tcp, lift), obj=raised(pushed, lift),

@@ -151,8 +151,7 @@ class EdgePick:
             world = here.matrix() @ grasp.matrix()
             if not needs_overhang(grasp) or not faces_the_back_edge(world):
                 continue
-            lacking = max(shortfall(world, p["edge_clearance"]), 0.0)
-            out_there = Pose(here.pos - np.array([lacking, 0.0, 0.0]), here.quat)
+            out_there = self.pushed(ctx, grasp)
             pose = Pose.from_matrix(out_there.matrix() @ grasp.matrix())
             with planner_what_if(ctx, objects={**(moved or {}), self.obj: out_there}):
                 try:
@@ -163,6 +162,12 @@ class EdgePick:
                     continue
             out.append(grasp)
         return tuple(out)
+
+    def pushed(self, ctx: Context, grasp: Grasp) -> Pose:
+        """Where the object lies once pushed from where it is now as far as ``grasp`` needs."""
+        here = ctx.object_pose(self.obj)
+        lacking = max(shortfall(here.matrix() @ grasp.matrix(), ctx.param("edge_clearance")), 0.0)
+        return Pose(here.pos - np.array([lacking, 0.0, 0.0]), here.quat)
 
     def feasibility(self, ctx: Context, min_grasps: int, moved: Mapping[str, Pose | np.ndarray] | None = None,
                     clearance: float = 0.0) -> dict[str, object]:
