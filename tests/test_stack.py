@@ -229,8 +229,8 @@ def test_a_tray_target_is_pinched_on_its_wall_and_carried_level_into_the_goal(gr
 
 # --- a chopping board as the target -------------------------------------------------------------------------
 class _BoardProbe(_TrayProbe):
-    """The tray probe's rows, plus the board's near end (its smallest world x, from its box geom's corners)
-    after every control step."""
+    """The tray probe's rows, plus the board's near end (its smallest world x, from its box geom's corners,
+    :func:`tests.helpers.rawdata.near_end`) after every control step."""
 
     def __init__(self, scene: Scene) -> None:
         super().__init__(scene)
@@ -239,11 +239,7 @@ class _BoardProbe(_TrayProbe):
 
     def step(self) -> None:
         super().step()
-        m, d = self.scene.model, self.scene.data
-        corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
-        local = corners * m.geom_size[self.geom]
-        world = d.geom_xpos[self.geom] + local @ d.geom_xmat[self.geom].reshape(3, 3).T
-        self.near_end.append(float(world[:, 0].min()))
+        self.near_end.append(rawdata.near_end(self.scene.model, self.scene.data, self.geom))
 
 
 def test_a_board_target_is_pushed_over_the_back_edge_pinched_and_lifted_level_into_the_goal(

@@ -66,6 +66,13 @@ def box_centre(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> np.ndarray:
     return d.xpos[body] + d.xmat[body].reshape(3, 3) @ ((lo + hi) / 2.0)
 
 
+def near_end(m: mujoco.MjModel, d: mujoco.MjData, geom: int) -> float:
+    """The smallest world x of a box geom's corners (a board's end nearest the table's back edge)."""
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+    local = corners * m.geom_size[geom]
+    return float((d.geom_xpos[geom] + local @ d.geom_xmat[geom].reshape(3, 3).T)[:, 0].min())
+
+
 def drawer_interior(m: mujoco.MjModel, body: int) -> tuple[np.ndarray, np.ndarray]:
     """The inner box (min, max) of an open box body (a drawer: geoms ``…bottom``, ``…wall_px/nx/py/ny``), in
     the body's frame, from the geoms' own positions and half sizes: above the bottom, between the walls'

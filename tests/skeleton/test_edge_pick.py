@@ -16,13 +16,6 @@ from tests.helpers import rawdata
 from tests.helpers.repo import family_root, generate_in_root
 
 
-def _near_end(m: mujoco.MjModel, d: mujoco.MjData, geom: int) -> float:
-    """The smallest world x of a box geom's corners."""
-    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
-    local = corners * m.geom_size[geom]
-    return float((d.geom_xpos[geom] + local @ d.geom_xmat[geom].reshape(3, 3).T)[:, 0].min())
-
-
 def test_a_board_lying_flat_is_pushed_over_the_back_edge_and_lifted_by_the_overhang(tmp_path: Path) -> None:
     out = tmp_path / "boards"
     run = generate_in_root(family_root(tmp_path, "toy_board"), "toy_board", 2, out)
@@ -41,7 +34,7 @@ def test_a_board_lying_flat_is_pushed_over_the_back_edge_and_lifted_by_the_overh
         states = [np.asarray(s, dtype=np.float64) for s in frames["sim.physics_state"]]
         mujoco.mj_setState(m, d, states[0], spec)
         mujoco.mj_forward(m, d)
-        assert _near_end(m, d, geom) > TABLE_X[0]  # it starts lying wholly on the table
+        assert rawdata.near_end(m, d, geom) > TABLE_X[0]  # it starts lying wholly on the table
         tilts = []
         for state in states:
             mujoco.mj_setState(m, d, state, spec)
@@ -49,6 +42,6 @@ def test_a_board_lying_flat_is_pushed_over_the_back_edge_and_lifted_by_the_overh
             tilts.append(np.degrees(np.arccos(np.clip(d.xmat[board][8], -1.0, 1.0))))
         assert max(tilts) < 5.0  # level all the way: pushed flat, lifted flat
         # at the end: out over the back edge, 9+ cm up, held by the two fingers alone
-        assert _near_end(m, d, geom) < TABLE_X[0] - 0.02
+        assert rawdata.near_end(m, d, geom) < TABLE_X[0] - 0.02
         assert d.xpos[board][2] - TABLE_TOP_Z > 0.09
         assert {m.body(b).name for b in rawdata.touching(m, d, board)} == {"left_finger", "right_finger"}
