@@ -58,6 +58,7 @@ GRIPS = [  # one graspable object per category, by a grasp the check found valid
     pytest.param("cup/tumbler_00", "side_000_r1", marks=pytest.mark.slow),
     pytest.param("mug/handled_00", "rim_045_r0", marks=pytest.mark.slow),
     pytest.param("lid/tub_00", "knob_x_r0", marks=pytest.mark.slow),
+    pytest.param("lid/canister_00", "knob_x_r0", marks=pytest.mark.slow),  # its knob only, above the plate
     pytest.param("container/bottle_00", "side_000_r1", marks=pytest.mark.slow),
     pytest.param("tray/flat_00", "rim_px_r0", marks=pytest.mark.slow),  # 24 x 16 cm, held by one side
     pytest.param("bowl/round_05", "wall_000_r0", marks=pytest.mark.slow),  # along its wall (vertical: 18°)
