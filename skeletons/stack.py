@@ -143,11 +143,7 @@ class StackSkeleton(FamilySkeleton):
         pushed = EDGE.pushed(ctx, grasp)
         tcp, lift = Pose.from_matrix(pushed.matrix() @ grasp.matrix()), ctx.param("edge_lift")
         with planner_what_if(ctx, objects=_stack_away(ctx)):
-            at_goal = self._target().goal_target(ctx, tcp=raised(tcp, lift), obj=raised(pushed, lift),
-                                                 strict=True)
-        if at_goal is None:
-            raise Infeasible("reach.goal", f"no turn of {TARGET} about the vertical "
-                                           f"({list(ctx.param('carry_yaws_deg'))} deg) reaches the goal")
+            self._target().require_goal(ctx, raised(tcp, lift), raised(pushed, lift))
         return facts
 
     # -- the picks ---------------------------------------------------------------------------------------

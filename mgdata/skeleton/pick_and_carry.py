@@ -163,7 +163,7 @@ class PickAndCarry:
         if name == "lift":
             return raised(ctx.commanded_tcp(), self._lift(ctx))
         if name in ("over_goal", "goal"):
-            goal = ctx.memo.get(self.name("goal_tcp")) or self.goal_target(ctx)
+            goal = ctx.memo.get(self.name("goal_tcp")) or self._goal_target(ctx)
             ctx.memo[self.name("goal_tcp")] = goal
             if name == "goal":
                 return goal
@@ -255,12 +255,15 @@ class PickAndCarry:
             raise Infeasible("reach.grasps", f"{len(reachable)} of the {len(ctx.grasps.get(self.obj, ()))} "
                                              f"valid grasps of {self.obj} are reachable (needs {min_grasps})")
         ctx.memo[self.name("grasp")] = reachable[0]
-        grasp_tcp = self._grasp_pose(ctx)
-        obj = ctx.object_pose(self.obj)
-        if self.goal_target(ctx, tcp=grasp_tcp, obj=obj, strict=True) is None:
+        self.require_goal(ctx, self._grasp_pose(ctx), ctx.object_pose(self.obj))
+        return {f"{self.tag}grasps": tuple(g.id for g in reachable)}
+
+    def require_goal(self, ctx: Context, tcp: Pose, obj: Pose) -> None:
+        """Raise ``reach.goal`` unless the arm reaches the goal holding the object as it is held with the TCP
+        at ``tcp`` and the object at ``obj`` (a gate check; also for skeletons that pick otherwise)."""
+        if self._goal_target(ctx, tcp=tcp, obj=obj, strict=True) is None:
             raise Infeasible("reach.goal", f"no turn of {self.obj} about the vertical "
                                            f"({list(ctx.param('carry_yaws_deg'))} deg) reaches the goal")
-        return {f"{self.tag}grasps": tuple(g.id for g in reachable)}
 
     def _reachable(self, ctx: Context) -> tuple[Grasp, ...]:
         """The gate's grasps (fact ``{tag}grasps``), else those reachable now (computed once)."""
@@ -301,7 +304,7 @@ class PickAndCarry:
         need = (max(tops) + float(ctx.param("lift_margin")) - low) if tops else 0.0
         return max(float(ctx.variation["lift_height"]), need)
 
-    def goal_target(self, ctx: Context, *, tcp: Pose | None = None, obj: Pose | None = None,
+    def _goal_target(self, ctx: Context, *, tcp: Pose | None = None, obj: Pose | None = None,
                      strict: bool = False) -> Pose | None:
         """TCP pose that puts the held object's bounding-box centre at the goal centre (offset by the draw),
         turned about the vertical by the first of ``carry_yaws_deg`` the arm can reach holding it (the
