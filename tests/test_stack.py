@@ -9,6 +9,8 @@ object more than 5 cm (positions set and measured in raw MuJoCo).
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import mujoco
 import numpy as np
 import pytest
@@ -22,6 +24,7 @@ from mgdata.sim.assets import get_model
 from mgdata.sim.controller import JointController
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
+from mgdata.sim.taskspec import TaskSpec
 from mgdata.sim.world import TABLE_X
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
@@ -31,6 +34,7 @@ from mgdata.skeleton.variation import draw_variation
 from mgdata.skeletons.stack import StackSkeleton
 from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import DROP, place
+from mgdata.tasks.recipe import Recipe
 from tests.helpers import rawdata
 from tests.helpers.probed import probed_attempt
 
@@ -209,14 +213,25 @@ class _TrayProbe(JointController):
         self.centre = rawdata.box_centre(m, d, self.body)
 
 
+P = TypeVar("P", bound=_TrayProbe)
+
+
+def _kept_target_pick(grasps: GraspDB, recipe: Recipe, task_id: int, model: str, grasp: str,
+                      probe: type[P]) -> tuple[TaskSpec, P]:
+    """Base task ``task_id`` (its target a ``model…``) played by the stack skeleton under ``probe``; the
+    attempt must be kept with a ``grasp…`` grasp of the target."""
+    task = base_task(recipe, task_id)
+    assert task.object("target").model.startswith(model)
+    result, _, meta, probed = probed_attempt(task, recipe, grasps, StackSkeleton(), probe)
+    assert result.kept and meta.kept, (result.stage, result.reason)
+    assert result.grasp_id.startswith(grasp)
+    return task, probed
+
+
 def test_a_tray_target_is_pinched_on_its_wall_and_carried_level_into_the_goal(grasps: GraspDB) -> None:
     """Task 17: a tray pinched on one wall and carried level (a free carry turned one 20° in the pinch)."""
     recipe = load_family_recipe("stack")
-    task = base_task(recipe, 17)
-    assert task.object("target").model.startswith("tray/")
-    result, _, meta, probe = probed_attempt(task, recipe, grasps, StackSkeleton(), _TrayProbe)
-    assert result.kept and meta.kept, (result.stage, result.reason)
-    assert result.grasp_id.startswith("rim_")
+    task, probe = _kept_target_pick(grasps, recipe, 17, "tray/", "rim_", _TrayProbe)
     z0 = probe.rows[0][1]
     lifted = [row for row in probe.rows if row[1] > z0 + 0.02]
     assert len(lifted) > 50  # lifted 2 cm clear of the table for the carry and the hold
@@ -246,12 +261,7 @@ def test_a_board_target_is_pushed_over_the_back_edge_pinched_and_lifted_level_in
         grasps: GraspDB) -> None:
     """Task 1: a chopping board under three boxes. The boxes go to the pile, the board slides over the table's
     back edge and is held by a pinch of its overhang alone, level, in the goal."""
-    recipe = load_family_recipe("stack")
-    task = base_task(recipe, 1)
-    assert task.object("target").model.startswith("board/")
-    result, _, meta, probe = probed_attempt(task, recipe, grasps, StackSkeleton(), _BoardProbe)
-    assert result.kept and meta.kept, (result.stage, result.reason)
-    assert result.grasp_id.startswith("edge_")
+    task, probe = _kept_target_pick(grasps, load_family_recipe("stack"), 1, "board/", "edge_", _BoardProbe)
     assert probe.near_end[0] > TABLE_X[0]  # it starts lying wholly on the table
     z0 = probe.rows[0][1]
     leaves = next(i for i, row in enumerate(probe.rows) if row[1] > z0 + 0.005)
