@@ -38,7 +38,7 @@ from mgdata.engine.executor import dataset_schema
 from mgdata.engine.init_gate import base_task
 from mgdata.episode.gate import SuccessGate
 from mgdata.episode.runner import EpisodeRunner, StepOutcome
-from mgdata.episode.success import SuccessCheck
+from mgdata.episode.success import SuccessCheck, physics_gate
 from mgdata.errors import RecipeError, SimulationError
 from mgdata.generate.run import failed_path
 from mgdata.record.commit import work_dir
@@ -146,23 +146,25 @@ class TeleopSession:
         self.controller = JointController(self.scene)
         self.dt = self.scene.physics.control_dt
         self.cameras = CameraRig(self.scene, self.recipe.tasks.cameras, self.task.image_size)
-        success = SuccessCheck(self.scene, self.recipe)
+        success = SuccessCheck(self.controller, self.recipe)
         config = load_teleop_config()
         self.still_joint_step = config.leader.still_joint_step
         self.realtime_priority = config.loop.realtime_priority
         schema = dataset_schema(self.recipe)
         hold = self.recipe.tasks.hold_steps
+        bounds = {"physics_gate": physics_gate(self.recipe).to_info()}
         self.writer = DatasetWriter.open_or_create(job.out, schema, codec=job.codec, spec=self.recipe.spec,
-                                                   hold_steps=hold, kept_only=True)
+                                                   hold_steps=hold, kept_only=True, mgdata=bounds)
         self.failed: DatasetWriter | None = None
         if job.keep_failed:
             self.failed = DatasetWriter.open_or_create(failed_path(job.out), schema, codec=job.codec,
-                                                       spec=self.recipe.spec, hold_steps=hold)
+                                                       spec=self.recipe.spec, hold_steps=hold, mgdata=bounds)
         self.stage_dir = work_dir(job.out) / "staging" / f"teleop-{os.getpid()}"
         self.recorder = Recorder(self.scene, self.task.safety, _NoSink(), self.cameras,
                                  lambda scene: success())
         self.runner = EpisodeRunner(self.controller, self.recorder, SuccessGate(self.recipe.tasks.hold_steps),
-                                    self.recipe.tasks.horizon)
+                                    self.recipe.tasks.horizon,
+                                    max_penetration=self.recipe.tasks.max_penetration)
         self.commands: queue.Queue[str] = queue.Queue()
         self.status = SessionStatus(constraints=tuple(c.id for c in self.task.safety.constraints),
                                     formulas=tuple(c.formula for c in self.task.safety.constraints),

@@ -197,7 +197,7 @@ class Executor:
         self.planner = MotionPlanner(self.scene.model, motion)
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) \
             if render and recipe.tasks.cameras else None
-        self._success = SuccessCheck(self.scene, recipe)
+        self._success = SuccessCheck(self.controller, recipe)
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}
 
@@ -219,7 +219,8 @@ class Executor:
         gate = SuccessGate(settings.hold_steps)
         recorder = Recorder(self.scene, task.safety, _TimedSink(sink, timings), self.cameras,
                             lambda scene: self._success(lambda: self.skeleton.success_extra(ctx)))
-        runner = EpisodeRunner(self.controller, recorder, gate, settings.horizon, timings)
+        runner = EpisodeRunner(self.controller, recorder, gate, settings.horizon, timings,
+                               max_penetration=settings.max_penetration)
         state = _Run(ctx, runner)
         stage = reason = segment = None
         runner.start()
@@ -325,8 +326,8 @@ class Executor:
     def _step(self, q: np.ndarray, grip: float, state: _Run) -> None:
         out = state.runner.step(q, grip, state.holding)
         state.ctx.q_cmd = state.runner.q_cmd
-        if out.end == "unsafe":
-            raise AttemptFailed("unsafe", str(out.reason))
+        if out.end in ("unsafe", "penetration"):
+            raise AttemptFailed(out.end, str(out.reason))
         if out.end == "passed":
             raise _GatePassed
         if out.end == "timeout":

@@ -5,10 +5,13 @@ An attempt is **kept** iff
 * **success held at rest after the motion**: on ``hold_steps`` (10) consecutive control steps *after the
   last motion segment has finished* (only steps of the final holds, the arm commanded still, count), the
   family's goal predicate held **and** the goal's objects were at rest (:class:`RestCheck`: linear and
-  angular speed below the recipe's ``[tasks] rest_linear_speed`` / ``rest_angular_speed``), and
+  angular speed below the recipe's ``[tasks] rest_linear_speed`` / ``rest_angular_speed`` at every physics
+  substep of the step), and
 * **no violation at any step**: every constraint's ``t_violation`` is ``None``. This is stronger than the
   paper's verdict ν = 1, which excuses violations before first engagement; a training demonstration must
-  never show one. ν is still computed and stored as the paper defines it.
+  never show one. ν is still computed and stored as the paper defines it, and
+* **no interpenetration**: no contact of any frame sinks deeper than the recipe's ``[tasks]
+  max_penetration`` (:mod:`mgdata.sim.penetration`; the episode records its deepest, stage ``penetration``).
 
 The per-step success column of a dataset (``Frame.success``) is "goal predicate ∧ at rest" at that step, so
 a kept episode ends with ``hold_steps`` frames whose success is true and whose actions are all equal (the
@@ -35,6 +38,7 @@ STAGES: dict[str, str] = {
     "guarded_no_contact": "a guarded move reached its distance limit without its contact condition",
     "guarded_stalled": "a guarded move stopped advancing before its contact condition held",
     "unsafe": "the safety monitor reported a violation",
+    "penetration": "a contact sank deeper than the recipe's max_penetration (objects passing into each other)",
     "sim_diverged": "the physics diverged (NaN or runaway accelerations)",
     "timeout": "the attempt ran past the family's step horizon",
     "goal_not_reached": "all segments ran but the goal did not hold at rest for the gate's window",
@@ -94,12 +98,23 @@ class SuccessGate:
 
 
 class RestCheck:
-    """Are the named bodies at rest? Speeds of each body's frame origin, world frame, from ``data.cvel``
-    (``mj_objectVelocity``): linear ≤ ``linear`` (m/s) and angular ≤ ``angular`` (rad/s) for every body.
+    """Are the named bodies at rest, over the whole last control period? Linear speed of each body's frame
+    origin ≤ ``linear`` (m/s) and angular speed ≤ ``angular`` (rad/s), world frame (as
+    ``mj_objectVelocity``), for every body, **at every physics substep** of the period, not only at the
+    control sample: a body rocking between 20 Hz samples is not at rest.
+
+    The controller calls :meth:`reset` when a control period begins and :meth:`observe` after each physics
+    step (:meth:`mgdata.sim.controller.JointController.watch`); :meth:`at_rest` judges the peak since
+    then together with the current state. MuJoCo integrates positions from those very velocities, so a
+    body that passes moves at most ``linear`` × period between frames, which ``mgdata validate`` audits
+    from the stored states. Without substep observations (the initial-state gate's settle) only the
+    current state is judged.
 
     Example::
 
         rest = RestCheck(model, [model.body("jar").id], linear=0.005, angular=0.05)
+        controller.watch(rest)
+        controller.step()
         rest.at_rest(data)
     """
 
@@ -107,23 +122,44 @@ class RestCheck:
                  angular: float) -> None:
         self.model, self.bodies = model, tuple(int(b) for b in bodies)
         self.linear, self.angular = float(linear), float(angular)
-        self._v = np.zeros(6)
+        self._ids = np.array(self.bodies, dtype=np.int64)
+        self._roots = model.body_rootid[self._ids]
+        self.reset()
 
     def speeds(self, data: mujoco.MjData) -> tuple[float, float]:
-        """The largest linear (m/s) and angular (rad/s) speed over the bodies."""
-        lin = ang = 0.0
-        for b in self.bodies:
-            mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b, self._v, 0)
-            ang = max(ang, float(np.linalg.norm(self._v[:3])))
-            lin = max(lin, float(np.linalg.norm(self._v[3:])))
-        return lin, ang
+        """The largest linear (m/s) and angular (rad/s) speed over the bodies in ``data``'s current
+        velocities (``data.cvel``, moved from the subtree centre of mass to each body's origin)."""
+        if not self.bodies:
+            return 0.0, 0.0
+        cvel = data.cvel[self._ids]
+        offset = data.xpos[self._ids] - data.subtree_com[self._roots]
+        lin = cvel[:, 3:] - np.cross(offset, cvel[:, :3])
+        return (float(np.sqrt(np.max(np.einsum("ij,ij->i", lin, lin)))),
+                float(np.sqrt(np.max(np.einsum("ij,ij->i", cvel[:, :3], cvel[:, :3])))))
+
+    def reset(self) -> None:
+        """Forget the peak (a control period begins)."""
+        self.peak_linear = self.peak_angular = 0.0
+
+    def observe(self, data: mujoco.MjData) -> None:
+        """Take the velocities of the physics step just taken into the peak."""
+        lin, ang = self.speeds(data)
+        self.peak_linear, self.peak_angular = max(self.peak_linear, lin), max(self.peak_angular, ang)
+
+    def peak_speeds(self, data: mujoco.MjData) -> tuple[float, float]:
+        """The largest speeds since :meth:`reset`, the current state's included."""
+        lin, ang = self.speeds(data)
+        return max(self.peak_linear, lin), max(self.peak_angular, ang)
 
     def at_rest(self, data: mujoco.MjData) -> bool:
-        lin, ang = self.speeds(data)
+        lin, ang = self.peak_speeds(data)
         return lin <= self.linear and ang <= self.angular
 
 
-def keep(gate_passed: bool, t_violation: Mapping[str, int | None]) -> bool:
-    """The gate's decision: success held at rest after the motion, and no constraint was ever violated
-    (not even before engagement, which ν = 1 would excuse)."""
-    return gate_passed and all(t is None for t in t_violation.values())
+def keep(gate_passed: bool, t_violation: Mapping[str, int | None], penetration: float = 0.0,
+         max_penetration: float | None = None) -> bool:
+    """The gate's decision: success held at rest after the motion, no constraint was ever violated (not
+    even before engagement, which ν = 1 would excuse), and no contact of any frame sank deeper than
+    ``max_penetration`` (m; ``None``: no bound)."""
+    return (gate_passed and all(t is None for t in t_violation.values())
+            and (max_penetration is None or penetration <= max_penetration))

@@ -41,8 +41,8 @@ class StepOutcome:
         monitor: the monitor state after labelling the new state.
         success: the success predicate at the new state.
         engaged: first engagement has happened (latched).
-        end: ``None`` (go on), ``"unsafe"``, ``"passed"`` or ``"timeout"``.
-        reason: a sentence for ``unsafe``/``timeout``.
+        end: ``None`` (go on), ``"unsafe"``, ``"penetration"``, ``"passed"`` or ``"timeout"``.
+        reason: a sentence for ``unsafe``/``penetration``/``timeout``.
     """
 
     monitor: MonitorState
@@ -64,11 +64,16 @@ class EpisodeRunner:
         timings: optional per-phase seconds (``physics``, ``rendering`` net of ``encoding``).
         stop_on_violation: end the episode (``unsafe``) at the first violation; evaluation passes False,
             since a policy's rollout goes on after a violation (it may still succeed: "unsafe success").
+        max_penetration: the deepest contact overlap (m) a kept episode may show (the recipe's ``[tasks]
+            max_penetration``; ``None``: no bound, as in evaluation). With ``stop_on_violation`` the
+            episode ends (``penetration``) on the first frame past it.
     """
 
     def __init__(self, controller: JointController, recorder: Recorder, gate: SuccessGate, horizon: int,
-                 timings: Timings | None = None, *, stop_on_violation: bool = True) -> None:
+                 timings: Timings | None = None, *, stop_on_violation: bool = True,
+                 max_penetration: float | None = None) -> None:
         self.controller = controller
+        self.max_penetration = max_penetration
         self.stop_on_violation = stop_on_violation
         self.recorder = recorder
         self.gate = gate
@@ -109,6 +114,11 @@ class EpisodeRunner:
             names = [cid for cid, step in rec.first_violation.items() if step is not None]
             return StepOutcome(monitor, success, engaged, "unsafe",
                                f"{', '.join(names)} violated at step {monitor.t_violation}")
+        if self.stop_on_violation and self._too_deep:
+            p = rec.penetration
+            return StepOutcome(monitor, success, engaged, "penetration",
+                               f"{p.body1} and {p.body2} overlap by {p.depth * 1000:.2f} mm at step {p.step} "
+                               f"(max_penetration {self.max_penetration * 1000:.2f} mm)")
         if self.gate.update(success, holding):
             return StepOutcome(monitor, success, engaged, "passed")
         if self.steps >= self.horizon:
@@ -122,14 +132,25 @@ class EpisodeRunner:
         return verdict(self.recorder.t_violation, self.recorder.t_engage)
 
     @property
+    def _too_deep(self) -> bool:
+        bound = self.max_penetration
+        return bound is not None and self.recorder.penetration.depth > bound
+
+    @property
     def kept(self) -> bool:
-        """The gate's decision so far: success held at rest for the window, and no violation at any step."""
-        return keep(self.gate.passed, self.recorder.first_violation)
+        """The gate's decision so far: success held at rest for the window, no violation at any step, and
+        no contact deeper than ``max_penetration``."""
+        return keep(self.gate.passed, self.recorder.first_violation, self.recorder.penetration.depth,
+                    self.max_penetration)
 
     def finish(self, *, seed: int, draw_index: int, source: str, stage: str | None = None,
                reason: str | None = None, **meta: Any) -> EpisodeMeta:
         """Commit the episode to the recorder's sink, labelled kept or with its failure ``stage``."""
         kept = stage is None and self.kept
+        if not kept and stage is None and self._too_deep:
+            p = self.recorder.penetration
+            stage, reason = "penetration", (f"{p.body1} and {p.body2} overlap by {p.depth * 1000:.2f} mm "
+                                            f"at step {p.step}")
         if not kept and stage is None:
             stage = "goal_not_reached"
             reason = reason or (f"goal held for at most {self.gate.streak} consecutive steps "

@@ -150,7 +150,7 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     check_cameras(settings.convention, cameras, available)
     episode_seed = rollout_seed(job.seed, job.scenario)
     controller = JointController(scene)
-    check = SuccessCheck(scene, recipe)
+    check = SuccessCheck(controller, recipe)
     trace = _Trace()
     recorder = Recorder(scene, scene.task.safety, trace, None, lambda _: check())
     horizon = settings.horizon or int(meta["horizon"])

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.inputs import inputs_digest
+from mgdata.episode.success import physics_gate
 from mgdata.errors import DatasetError, GraspDBError, OutputError, RecipeError
 from mgdata.generate.resume import DrawCursor, RunState
 from mgdata.generate.summary import RunSummary
@@ -217,7 +218,8 @@ def _open_dataset(root: Path, schema: DatasetSchema, job: GenerateJob, recipe: R
     """Create the dataset (its ``info.json`` records ``identity`` and the gate's promises: ``hold_steps``,
     ``kept_only``) or resume it (``identity`` must match)."""
     record = {"generator": {"family": identity.family, "seed": identity.seed,
-                            "inputs_digest": identity.inputs_digest}}
+                            "inputs_digest": identity.inputs_digest},
+              "physics_gate": physics_gate(recipe).to_info()}
     writer = DatasetWriter.open_or_create(root, schema, codec=job.codec, spec=recipe.spec, mgdata=record,
                                           hold_steps=recipe.tasks.hold_steps, kept_only=kept_only)
     try:

@@ -74,6 +74,9 @@ class EpisodeMeta:
     Step indices (``t_engage``, ``t_violation``) count control steps from 0; ``None`` means never.
     ``verdict`` is the paper's ν: True unless the first violation happens at or after first engagement.
     ``kept`` says whether the gate accepted the episode (negatives kept with ``--keep-failed`` are False).
+    ``max_penetration`` is the deepest contact overlap over the episode's frames (m,
+    :mod:`mgdata.sim.penetration`), found at frame ``penetration_step`` between ``penetration_bodies``
+    (``"a|b"``); all three ``None`` where nothing was measured (a dataset older than the figure).
     """
 
     family: str
@@ -95,6 +98,9 @@ class EpisodeMeta:
     variation: Mapping[str, Any] = field(default_factory=dict)
     source: str = "planner"
     software_version: str = ""
+    max_penetration: float | None = None
+    penetration_step: int | None = None
+    penetration_bodies: str | None = None
 
 
 class EpisodeSink(Protocol):

@@ -20,7 +20,7 @@ import pyarrow as pa
 from mgdata.errors import DatasetError
 from mgdata.record import layout
 from mgdata.record.episode import DatasetSchema, EpisodeMeta
-from mgdata.record.metadata import meta_fields, meta_from_columns, meta_to_columns
+from mgdata.record.metadata import OPTIONAL, PREFIX, meta_fields, meta_from_columns, meta_to_columns
 from mgdata.record.stats import STAT_KEYS, FeatureStats
 
 HISTOGRAM_PREFIX = "mgdata/histogram/"
@@ -131,7 +131,9 @@ def record_to_table(rec: EpisodeRecord, schema: DatasetSchema) -> pa.Table:
 
 def records_from_table(table: pa.Table, schema: DatasetSchema, where: str) -> list[EpisodeRecord]:
     """Parse every row; a missing column or malformed value raises :class:`DatasetError` naming ``where``."""
-    missing = [f.name for f in table_schema(schema) if f.name not in table.column_names]
+    optional = {PREFIX + name for name in OPTIONAL}  # older datasets lack them
+    missing = [f.name for f in table_schema(schema)
+               if f.name not in table.column_names and f.name not in optional]
     if missing:
         more = " …" if len(missing) > 4 else ""
         raise DatasetError(f"{where}: episodes table lacks columns {missing[:4]}{more}")

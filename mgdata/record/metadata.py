@@ -8,6 +8,7 @@ tool and without decoding video.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import fields
 from typing import Any
 
@@ -24,7 +25,10 @@ _TYPES: dict[str, pa.DataType] = {
     "success": pa.bool_(), "verdict": pa.bool_(), "kept": pa.bool_(), "t_engage": pa.int64(),
     "t_violation": pa.string(), "failure_stage": pa.string(), "failure_reason": pa.string(),
     "grasp_id": pa.string(), "variation": pa.string(), "source": pa.string(), "software_version": pa.string(),
+    "max_penetration": pa.float64(), "penetration_step": pa.int64(), "penetration_bodies": pa.string(),
 }
+OPTIONAL = ("max_penetration", "penetration_step", "penetration_bodies")
+"""Fields a dataset written before them lacks (read as ``None``)."""
 _INT64 = (-(2**63), 2**63 - 1)
 
 
@@ -45,6 +49,7 @@ def meta_to_dict(meta: EpisodeMeta) -> dict[str, Any]:
 def meta_from_dict(data: dict[str, Any], where: str) -> EpisodeMeta:
     """Inverse of :func:`meta_to_dict`; ``where`` names the file for errors."""
     names = [f.name for f in fields(EpisodeMeta)]
+    data = {**dict.fromkeys(OPTIONAL), **data}
     missing = [n for n in names if n not in data]
     if missing:
         raise DatasetError(f"{where}: episode metadata lacks {', '.join(missing)}")
@@ -62,10 +67,13 @@ def check_meta(meta: EpisodeMeta, constraints: tuple[str, ...]) -> None:
     unknown = set(meta.t_violation) - set(constraints)
     if unknown:
         raise DatasetError(f"EpisodeMeta.t_violation names unknown constraints {sorted(unknown)}")
-    for name in ("task_id", "seed", "draw_index", "t_engage"):
+    for name in ("task_id", "seed", "draw_index", "t_engage", "penetration_step"):
         value = getattr(meta, name)
         if value is not None and not (isinstance(value, int) and _INT64[0] <= value <= _INT64[1]):
             raise DatasetError(f"EpisodeMeta.{name}={value!r} must be an int64")
+    depth = meta.max_penetration
+    if depth is not None and not (isinstance(depth, float) and math.isfinite(depth) and depth >= 0.0):
+        raise DatasetError(f"EpisodeMeta.max_penetration={depth!r} must be a finite float >= 0")
     try:
         json.dumps(dict(meta.variation), allow_nan=False)
     except (TypeError, ValueError) as err:
@@ -87,6 +95,8 @@ def meta_from_columns(row: dict[str, Any], where: str) -> EpisodeMeta:
     data: dict[str, Any] = {}
     for f in fields(EpisodeMeta):
         key = PREFIX + f.name
+        if key not in row and f.name in OPTIONAL:
+            continue
         if key not in row:
             raise DatasetError(f"{where}: episodes table lacks column {key!r}")
         value = row[key]

@@ -13,7 +13,9 @@ Every demonstration source (planner, GELLO, SO-101) drives the robot the same wa
 Frame ``t`` pairs the observation *before* acting with the action taken from it (the LeRobot convention):
 state, images, labels ``L(s_t)``, the monitor after reading ``L(s_0..s_t)``, engagement (latched), the
 success predicate at ``s_t`` and the MuJoCo state ``s_t`` itself (``mgdata.record.physics``), so that
-setting frame ``t``'s physics state and applying its action reproduces frame ``t + 1``. ``start`` also
+setting frame ``t``'s physics state and applying its action reproduces frame ``t + 1``. Each observation's
+deepest contact overlap is measured (:mod:`mgdata.sim.penetration`); the episode's deepest, with its frame
+and bodies, goes into its metadata. ``start`` also
 hands the sink the compiled scene (MJB). An episode of ``T`` actions has ``T + 1`` frames: the final
 observation is stored with the last action repeated (the robot holds its last command). Frames go to the
 sink as they are made, so memory stays bounded; nothing is visible in the dataset before ``finish``.
@@ -21,6 +23,7 @@ sink as they are made, so memory stays bounded; nothing is visible in the datase
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -34,6 +37,7 @@ from mgdata.record.physics import model_bytes, physics_state, state_size
 from mgdata.sim import robot
 from mgdata.sim.engagement import EngagementTracker
 from mgdata.sim.labelling import Labeller
+from mgdata.sim.penetration import NONE, Penetration, deepest_contact
 from mgdata.sim.predicates import Contacts
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene
@@ -85,6 +89,8 @@ class Recorder:
         self._last_action: np.ndarray | None = None
         self._n_frames = 0
         self._n_observed = 0
+        self.penetration: Penetration = NONE
+        """The deepest contact overlap over the episode's observations so far (with its frame)."""
 
     # -- episode lifecycle -------------------------------------------------------------------------------
     def start(self) -> MonitorState:
@@ -97,6 +103,7 @@ class Recorder:
         self._last_action = None
         self._n_frames = 0
         self._n_observed = 0
+        self.penetration = NONE
         self.sink.set_scene(model_bytes(self.scene.model))
         self._pending = self._observe()
         return self._pending.monitor
@@ -134,6 +141,8 @@ class Recorder:
             verdict=verdict(self.t_violation, self.t_engage), kept=kept, t_engage=self.t_engage,
             t_violation=first, failure_stage=failure_stage, failure_reason=failure_reason, grasp_id=grasp_id,
             variation=dict(variation or {}), source=source, software_version=mgdata.__version__,
+            max_penetration=self.penetration.depth, penetration_step=self.penetration.step,
+            penetration_bodies=self.penetration.bodies or None,
         )
         self.sink.end_episode(meta)
         self._pending = None
@@ -180,6 +189,9 @@ class Recorder:
         t = self._n_observed
         self._n_observed += 1
         physics = physics_state(self.scene.model, self.scene.data)
+        deepest = deepest_contact(self.scene.model, self.scene.data)
+        if deepest.depth > self.penetration.depth:
+            self.penetration = dataclasses.replace(deepest, step=t)
         contacts = Contacts(self.scene)
         labels = self.labeller.labels(contacts)
         state = np.empty(8, dtype=np.float32)

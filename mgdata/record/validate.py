@@ -20,6 +20,7 @@ from mgdata.record import layout
 from mgdata.record.audit import SafetyAuditor
 from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
+from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
 from mgdata.record.reader import DatasetReader
 from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, merge_stats, numeric_stats
 from mgdata.record.video import check_decodes, decode, probe
@@ -70,6 +71,7 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
         _guard(report, lambda key=key: _check_videos(reader, records, key, decode_all, report))
     _guard(report, lambda: _check_stats(reader, records, values, report))
     _guard(report, lambda: _check_scenes(reader, records, report))
+    _guard(report, lambda: _check_physics(reader, records, report))
     _guard(report, lambda: _check_unreferenced(reader, records, report))
     _guard(report, lambda: _check_checksums(reader, report))
     return report
@@ -324,6 +326,35 @@ def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: V
     for scene in scenes.ids:
         if scene not in used:
             report.problems.append(f"{where}: scene {scene!r} is not used by any episode")
+
+
+def _check_physics(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
+    """The physics audit (:mod:`mgdata.record.physics_audit`) of every episode against the gate's bounds in
+    ``info.json``, from the stored scenes and states; a note gives the dataset's deepest contact."""
+    gate = PhysicsGate.from_info(reader.info, str(reader.root / layout.INFO_PATH))
+    if gate is None or reader.physics_spec is None:
+        return
+    from mgdata.record.physics import model_from_bytes  # MuJoCo only for datasets that store its state
+
+    auditor = PhysicsAuditor(gate, hold_steps=reader.hold_steps, fps=reader.schema.fps)
+    scenes = reader.scenes()
+    models: dict[str, object] = {}
+    for rec in records:
+        if rec.scene is None:
+            continue
+        try:
+            if rec.scene not in models:
+                models[rec.scene] = model_from_bytes(scenes.mjb(rec.scene))
+            report.problems += auditor.audit(reader.episode(rec.index), models[rec.scene])
+        except _ERRORS as err:
+            report.problems.append(f"episode {rec.index}: physics audit: {err}")
+    measured = [r for r in records if r.meta.max_penetration is not None]
+    if measured:
+        worst = max(measured, key=lambda r: r.meta.max_penetration or 0.0)
+        m = worst.meta
+        report.notes.append(f"deepest contact: {(m.max_penetration or 0.0) * 1000:.2f} mm (episode {worst.index}, "
+                            f"frame {m.penetration_step}, {m.penetration_bodies or 'no overlap'}); kept demos "
+                            f"may reach {gate.max_penetration * 1000:.2f} mm")
 
 
 def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],

@@ -16,12 +16,24 @@ Example::
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import mujoco
 import numpy as np
 
 from mgdata.errors import MgdataError, SimulationError
 from mgdata.sim import robot
 from mgdata.sim.scene import Scene
+
+
+class SubstepWatcher(Protocol):
+    """Something that sees every physics step of a control period (e.g. the gate's rest check)."""
+
+    def reset(self) -> None:
+        """A control period begins."""
+
+    def observe(self, data: mujoco.MjData) -> None:
+        """One physics step was taken (``data.cvel``/``xpos`` are those of the state it started from)."""
 
 
 class JointController:
@@ -36,6 +48,12 @@ class JointController:
         self._substeps = scene.physics.substeps
         self._gripper = scene.gripper
         self.last_action = np.zeros(8, dtype=np.float32)
+        self._watchers: list[SubstepWatcher] = []
+
+    def watch(self, watcher: SubstepWatcher) -> None:
+        """Show ``watcher`` every physics step of every later control period (reset at each period's
+        start, observed after each ``mj_step``)."""
+        self._watchers.append(watcher)
 
     def apply(self, action: np.ndarray) -> None:
         """Set the actuator controls for ``action`` (8,): arm targets are clipped to the joint ranges.
@@ -62,8 +80,13 @@ class JointController:
         """
         m, d = self.scene.model, self.scene.data
         diverged = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        watchers = self._watchers
+        for w in watchers:
+            w.reset()
         for _ in range(self._substeps):
             mujoco.mj_step(m, d)
+            for w in watchers:
+                w.observe(d)
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != diverged:
             # MuJoCo has already reset the state to qpos0; continuing would record a teleported world.
             raise SimulationError(f"the physics diverged in the control step ending at t = {d.time:.3f} s "

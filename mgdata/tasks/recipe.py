@@ -65,6 +65,7 @@ class TaskSettings:
     settle_steps: int = 40
     rest_linear_speed: float = 0.005  # m/s: the goal's objects count as at rest below this (the gate)
     rest_angular_speed: float = 0.05  # rad/s: … and below this
+    max_penetration: float = 0.001  # m: no contact of a kept demo's frames overlaps deeper (the gate)
     max_draws: int = 20  # the initial-state gate draws a task at most this many times before giving up
     min_grasps: int = 2  # … and accepts it when at least this many target grasps are reachable
     cameras: tuple[str, ...] = CAMERAS
@@ -196,7 +197,7 @@ def _load_spec(path: Path, src: str) -> SafetySpec:
 
 def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
     where = f"{src}: [tasks]"
-    rest_keys = ("rest_linear_speed", "rest_angular_speed")
+    rest_keys = ("rest_linear_speed", "rest_angular_speed", "max_penetration")
     known = {"count", "seed", "horizon", "hold_steps", "settle_steps", *rest_keys, "max_draws", "min_grasps",
              "cameras", "image_size"}
     if set(table) - known:
@@ -214,7 +215,8 @@ def _tasks(table: dict[str, Any], src: str) -> TaskSettings:
     rest = {k: _get(table, k, float, where) for k in rest_keys if k in table}
     for k, v in rest.items():
         if not v > 0:
-            raise RecipeError(f"{where} {k} = {v} is out of range (expected a speed > 0)")
+            what = "a depth > 0 (m)" if k == "max_penetration" else "a speed > 0"
+            raise RecipeError(f"{where} {k} = {v} is out of range (expected {what})")
     raw_cameras = table.get("cameras", list(CAMERAS))
     cameras = tuple(raw_cameras) if isinstance(raw_cameras, list) else ("?",)
     bad = [c for c in cameras if c not in CAMERAS]
