@@ -98,9 +98,9 @@ class SuccessGate:
 
 
 class RestCheck:
-    """Are the named bodies at rest, over the whole last control period? Linear speed of each body's frame
-    origin ≤ ``linear`` (m/s) and angular speed ≤ ``angular`` (rad/s), world frame (as
-    ``mj_objectVelocity``), for every body, **at every physics substep** of the period, not only at the
+    """Are the named bodies at rest, over the whole last control period? Linear speed of each body's centre
+    of mass ≤ ``linear`` (m/s) and angular speed ≤ ``angular`` (rad/s), world frame (``mj_objectVelocity``
+    of the body), for every body, **at every physics substep** of the period, not only at the
     control sample: a body rocking between 20 Hz samples is not at rest.
 
     The controller calls :meth:`reset` when a control period begins and :meth:`observe` after each physics
@@ -128,11 +128,12 @@ class RestCheck:
 
     def speeds(self, data: mujoco.MjData) -> tuple[float, float]:
         """The largest linear (m/s) and angular (rad/s) speed over the bodies in ``data``'s current
-        velocities (``data.cvel``, moved from the subtree centre of mass to each body's origin)."""
+        velocities (``data.cvel``, moved from the subtree's centre of mass to each body's, as
+        ``mj_objectVelocity`` does)."""
         if not self.bodies:
             return 0.0, 0.0
         cvel = data.cvel[self._ids]
-        offset = data.xpos[self._ids] - data.subtree_com[self._roots]
+        offset = data.xipos[self._ids] - data.subtree_com[self._roots]
         lin = cvel[:, 3:] - np.cross(offset, cvel[:, :3])
         return (float(np.sqrt(np.max(np.einsum("ij,ij->i", lin, lin)))),
                 float(np.sqrt(np.max(np.einsum("ij,ij->i", cvel[:, :3], cvel[:, :3])))))
