@@ -20,6 +20,8 @@ class DatasetSummary:
         attempts: attempts recorded by the generator (``None`` if it recorded none); ``draws``: attempts
             implied by the draw indices (max draw index + 1 per family and task).
         size_bytes: bytes on disk (dataset files only).
+        penetration: the deepest contact overlap over every episode's frames (m), its episode, frame and
+            bodies (``None``: no episode records it); ``penetration_bound``: the gate's ``max_penetration``.
     """
 
     root: Path
@@ -37,6 +39,8 @@ class DatasetSummary:
     attempts: int | None
     draws: int
     size_bytes: int
+    penetration: tuple[float, int, int | None, str] | None = None
+    penetration_bound: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -56,6 +60,9 @@ def summarize(root: Path) -> DatasetSummary:
     for m in metas:
         key = (m.family, m.task_id)
         last_draw[key] = max(last_draw.get(key, -1), m.draw_index)
+    measured = [(m.max_penetration, i, m.penetration_step, m.penetration_bodies or "")
+                for i, m in enumerate(metas) if m.max_penetration is not None]
+    bound = (reader.info["mgdata"].get("physics_gate") or {}).get("max_penetration")
     size = sum(p.stat().st_size for p in Path(root).rglob("*")
                if p.is_file() and layout.WORK_DIR not in p.relative_to(root).parts)
     return DatasetSummary(
@@ -66,6 +73,7 @@ def summarize(root: Path) -> DatasetSummary:
         kept=sum(m.kept for m in metas), negatives=sum(not m.kept for m in metas),
         unsafe=sum(not m.verdict for m in metas), attempts=reader.info["mgdata"].get("attempts"),
         draws=sum(d + 1 for d in last_draw.values()), size_bytes=size,
+        penetration=max(measured, key=lambda x: x[0]) if measured else None, penetration_bound=bound,
     )
 
 
@@ -89,5 +97,15 @@ def format_summary(s: DatasetSummary) -> list[str]:
         f"families    {counts(s.by_family)}",
         f"conditions  {counts(s.by_condition)}",
         f"yield       {yld}",
+        f"contacts    {_contacts(s)}",
         f"size        {s.size_bytes / 1e6:.1f} MB",
     ]
+
+
+def _contacts(s: DatasetSummary) -> str:
+    if s.penetration is None:
+        return "not measured"
+    depth, episode, frame, bodies = s.penetration
+    bound = f"; kept demos may reach {s.penetration_bound * 1000:.2f} mm" if s.penetration_bound else ""
+    return (f"deepest overlap {depth * 1000:.2f} mm (episode {episode}, frame {frame}, "
+            f"{bodies or 'no overlap'}){bound}")
