@@ -3,11 +3,13 @@
 The motion, as the paper describes it:
 
 1. **Cap the container.** Grasp the lid top-down by its knob (the cap: by its body), round-robin over its
-   reachable valid grasps; lift it until its plug clears the rim by the draw's ``lid_hover``; carry it (free)
-   over the container with its axis on the container's and level; let the arm settle; then lower it with a
-   guarded segment aimed ``seat_overshoot`` below the seat (its rest commands cancel the servos' sag, so the
-   lid arrives on the axis) that stops once the container pushes back on the held lid with ``seat_force``
-   newtons (never more than ``seat_max_force``); release, back off straight up and
+   reachable valid grasps, aimed where the arm comes to rest at the grasp (:mod:`mgdata.grasps.rest`: it
+   sags 5-13 mm below a plain command, and a far cap was gripped by its plug, a fingertip then stopping the
+   seat on the rim 6 mm too high); lift it until its plug clears the rim by the draw's ``lid_hover``; carry
+   it (free) to where the arm rests with its axis on the container's and level; let the arm settle; then
+   lower it with a guarded segment aimed ``seat_overshoot`` below the seat (its rest commands cancel the
+   servos' sag, so the lid arrives on the axis) that stops once the container pushes back on the held lid
+   with ``seat_force`` newtons (never more than ``seat_max_force``); release, back off straight up and
    return to the start pose (the container's grasp is then planned from where the gate checked it).
    The lid's tapered plug guides it into the mouth; nothing attaches it: it stays by its own weight.
 2. **Carry the container** (Layer 2's pick-and-carry, the food and the lid riding on it): side-grasp it, lift
@@ -26,6 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mgdata.episode.gate import AttemptFailed
+from mgdata.grasps.rest import resting_target
 from mgdata.motion import Pose
 from mgdata.sim.geometry import LowestPoint
 from mgdata.skeleton import segment as s
@@ -106,9 +109,17 @@ class LidSkeleton(FamilySkeleton):
         return self.carry.resolve(name, ctx) or super().resolve(name, ctx)
 
     def _lid_target(self, name: str, ctx: Context) -> Pose:
-        if name in ("lid_pre", "lid_grasp"):
+        if name in ("lid_pre", "lid_grasp"):  # aimed where the arm comes to rest (it sags 5-13 mm)
             grasp = Pose.from_matrix(ctx.object_pose(LID).matrix() @ ctx.memo["lid_grasp"].matrix())
-            return grasp if name == "lid_grasp" else backed_off(grasp, ctx.variation["grasp_standoff"])
+            rested = resting_target(ctx.planner, ctx.scene.model, grasp, (ctx.q_cmd,),
+                                    ctx.variation.rng("rest/lid_grasp"))
+            if name == "lid_grasp":
+                return rested
+            rng, standoff = ctx.variation.rng("lid_pre"), ctx.variation["grasp_standoff"]
+            search = first_reachable((backed_off(rested, standoff), backed_off(grasp, standoff)),
+                                     lambda pose: ctx.planner.ik(pose, ctx.q_cmd, rng, collision_free=True))
+            search.seed(ctx, name)  # in line with the rest pose, else (out of reach) with the grasp's
+            return search.found_or_first
         if name == "lid_home":
             return ctx.memo["lid_home"]
         tcp = ctx.commanded_tcp()
@@ -129,7 +140,9 @@ class LidSkeleton(FamilySkeleton):
             target = self._over_container(ctx, tcp_t_lid, up)
             if target is None:
                 raise AttemptFailed("target_fail", "no turn of the held lid over the container is reachable")
-            return target
+            # where the arm comes to rest with it: the guarded lowering starts from there towards the seat
+            return resting_target(ctx.planner, ctx.scene.model, target, (ctx.q_cmd,),
+                                  ctx.variation.rng("rest/lid_above"))
         return super().resolve(name, ctx)
 
     def _over_container(self, ctx: Context, tcp_t_lid: Pose, up: float) -> Pose | None:

@@ -18,7 +18,8 @@ pre-grasp pose, a straight approach, closing the gripper, then
 An edge pinch (:func:`needs_overhang`: a board's or a plate's edge, the lower finger under it) needs its edge
 over a table edge first: the object lies by the table's back edge, behind the robot base (the one edge the
 hand reaches from beyond it), and a guarded push of the open hand slides it ``slide`` over it before the
-pre-grasp.
+pre-grasp; the approach aims where the arm comes to rest at the pinch (:mod:`mgdata.grasps.rest`), as the
+edge pick does.
 
 Example::
 
@@ -36,6 +37,7 @@ import numpy as np
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp
 from mgdata.grasps.edge import needs_overhang, push_start, shortfall
+from mgdata.grasps.rest import resting_target
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
@@ -62,7 +64,7 @@ class GraspCheckConfig:
     min_pull_fraction: float = 0.8
     edge_y: float = 0.35  # m left of the robot: where an edge pinch's object lies by the table's back edge
     slide: float = 0.08  # m the object is pushed towards that edge before the pinch
-    edge_clearance: float = 0.005  # m between the pushed-out fingertips' reach and the table's edge
+    edge_clearance: float = 0.010  # m between the pushed-out fingertips' reach and the table's edge
     push_tip_height: float = 0.008  # m above the table: the pushing fingertips
     push_clearance: float = 0.02  # m between the open fingers and the object where the push starts
     push_tolerance: float = 0.002  # m: the push goes on until the object lacks less than this
@@ -148,7 +150,11 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
         world = grasp.world_matrix(scene.model, scene.data, "object")
         target = Pose.from_matrix(world)
         pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
-        q_pre = planner.ik(pre, q, rng, collision_free=True)
+        edge = needs_overhang(grasp)  # as the edge pick: the pre-grasp's IK from home first, the approach
+        q_pre = _first_ik(planner, pre, (robot.HOME_Q, q) if edge else (q,), rng)  # aimed where the arm rests
+        if edge:
+            target = resting_target(planner, scene.model, target, (q_pre,),
+                                    np.random.default_rng(np.random.SeedSequence([cfg.seed, word, 1])))
         q = _run(ctl, q, planner.free(q, q_pre, rng).q, 0.0)
         planner.sync(scene.data)
         q = _run(ctl, q, planner.linear(q, target, rng, allowed=touch).q, 0.0)
@@ -159,6 +165,18 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     if grasp.frame and art is not None and art.kind == "slide":
         return _pull(scene, planner, ctl, q, rng, cfg)
     return _lift(scene, planner, ctl, q, rng, cfg)
+
+
+def _first_ik(planner: MotionPlanner, pose: Pose, seeds: tuple[np.ndarray, ...],
+              rng: np.random.Generator) -> np.ndarray:
+    """A collision-free IK solution for ``pose`` near the first of ``seeds`` that has one (else the last
+    seed's ``MotionFailure``)."""
+    for seed in seeds[:-1]:
+        try:
+            return planner.ik(pose, seed, rng, collision_free=True)
+        except MotionFailure:
+            pass
+    return planner.ik(pose, seeds[-1], rng, collision_free=True)
 
 
 def _push_to_edge(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,

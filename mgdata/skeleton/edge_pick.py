@@ -9,7 +9,9 @@ fingertips lack to clear the table's edge by ``edge_clearance``, measured on the
 (:func:`~mgdata.grasps.edge.shortfall`); let the arm settle; push again by what the object still lacks (the
 pushing arm lags its command; a push of less than ``push_tolerance`` stays put); rise; then the pick of
 :class:`~mgdata.skeleton.pick_place.PickPlace`: pre-grasp ``push_standoff`` beyond the edge (free),
-approach, settle, close, lift straight up by ``edge_lift``.
+approach, settle, close, lift straight up by ``edge_lift``. The approach aims where the arm comes to rest at
+the pinch (:mod:`mgdata.grasps.rest`): aimed at the pinch itself the arm rested ~5 mm low, the upper finger
+met the board first and pressed it up to 5 mm into the table's edge.
 
 The pinch is one of the object's valid edge grasps (``needs_overhang``) that comes in from behind the back
 edge and that the arm reaches once the object is pushed out (:meth:`EdgePick.feasibility`, the
@@ -33,16 +35,17 @@ and plugs it in::
 from __future__ import annotations
 
 from collections.abc import Mapping
-from contextlib import suppress
 from dataclasses import dataclass
 
 import numpy as np
 
 from mgdata.grasps.db import Grasp
 from mgdata.grasps.edge import faces_the_back_edge, needs_overhang, push_start, shortfall
+from mgdata.grasps.rest import resting_target
 from mgdata.motion import AllowedContacts, MotionFailure, Pose
 from mgdata.sim.robot import HOME_Q, ROOT_BODY
 from mgdata.skeleton import segment as s
+from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.pick_place import PickPlace
@@ -116,22 +119,27 @@ class EdgePick:
             return raised(ctx.commanded_tcp(), p["push_standoff"])
         if name in ("pre_grasp", "grasp"):
             pose = Pose.from_matrix(self._grasp_world(ctx))
+            rested = resting_target(ctx.planner, ctx.scene.model, pose, (ctx.q_cmd, HOME_Q),
+                                    ctx.variation.rng("rest/edge_grasp"))
             if name == "grasp":
-                return pose
-            pre = backed_off(pose, p["push_standoff"])
-            self._seed_from_home(ctx, name, pre)
-            return pre
+                return rested
+            return self._pre_from_home(ctx, name, (backed_off(rested, p["push_standoff"]),
+                                                   backed_off(pose, p["push_standoff"])))
         if name == "lift":
             return raised(ctx.commanded_tcp(), p["edge_lift"])
         return None
 
     @staticmethod
-    def _seed_from_home(ctx: Context, name: str, pose: Pose) -> None:
-        """Seed the attempt's IK for ``name`` with a solution from the home posture, as :meth:`reachable`
-        found it: from where the push leaves the arm, a pinch with the hand rolled half a turn is often out
-        of the solver's reach (``ik_fail``, residual 0.3 m)."""
-        with suppress(MotionFailure):
-            ctx.q_hints[name] = ctx.planner.ik(pose, HOME_Q, ctx.task_rng("edge_reach"), collision_free=True)
+    def _pre_from_home(ctx: Context, name: str, poses: tuple[Pose, Pose]) -> Pose:
+        """The first of ``poses`` (the pre-grasp in line with where the arm rests at the pinch, then in line
+        with the pinch itself: stretched out behind the base the first is at times just out of reach) with
+        a collision-free IK solution from the home posture, which seeds the attempt's IK for ``name``, as
+        :meth:`reachable` found it: from where the push leaves the arm, a pinch with the hand rolled half a
+        turn is often out of the solver's reach (``ik_fail``, residual 0.3 m). The last where neither has."""
+        rng = ctx.task_rng("edge_reach")
+        search = first_reachable(poses, lambda pose: ctx.planner.ik(pose, HOME_Q, rng, collision_free=True))
+        search.seed(ctx, name)
+        return poses[-1] if search.found is None else search.found
 
     def _grasp_world(self, ctx: Context) -> np.ndarray:
         grasp: Grasp = ctx.memo["grasp"]

@@ -101,13 +101,19 @@ def test_a_flat_object_is_pushed_over_the_tables_back_edge_and_lifted_by_the_ove
     for _ in range(100):  # and it stays there, flat on the table
         mujoco.mj_step(m, d)
     moved = d.xpos[body] - before
-    assert moved[0] == pytest.approx(-cfg.slide, abs=cfg.push_tolerance) and abs(moved[1]) < 0.005, moved
+    # at least the slide less push_tolerance (the push stops only then; measured 79.9-80.9 mm of 80, 1.9 mm
+    # clear), and no runaway: the object slides on ~1 mm after the hand stops, 5 mm bounds that by 4 mm
+    assert -cfg.slide - 0.005 < moved[0] < -cfg.slide + cfg.push_tolerance and abs(moved[1]) < 0.005, moved
     turned = math.remainder(math.atan2(d.xmat[body][3], d.xmat[body][0]) - yaw_before, 2 * math.pi)
     assert abs(math.degrees(turned)) < 3.0
     assert d.xmat[body][8] > math.cos(math.radians(1.0)) and abs(d.xpos[body][2] - TABLE_TOP_Z) < 1e-3
     world = grasp.world_matrix(m, d, "object")
     tip = world[:3, 3] + world[:3, 2] * robot.FINGERTIP_REACH
-    assert tip[0] < TABLE_X[0] - 0.005  # the fingertips close beyond the table: the pinched edge overhangs it
+    # the fingertips close beyond the table: the pinched edge overhangs it. The push aims them edge_clearance
+    # (10 mm) beyond the edge and stops within push_tolerance (2 mm) of that: measured 10.3-10.9 mm, 5 mm
+    # clear of this bound (aimed at 5 mm they closed 5.6-6.1 mm beyond here, 4.8 on an AMD EPYC: CPU-decided)
+    assert cfg.edge_clearance - cfg.push_tolerance >= 0.008
+    assert tip[0] < TABLE_X[0] - 0.005
     down = np.array([0.0, 0.0, -1.0])
     geom = np.array([-1], dtype=np.int32)
     colliding = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # geom groups 0 (both) and 3 (collision)
