@@ -28,7 +28,7 @@ from mgdata.skeletons.clutter import ClutterSkeleton
 from mgdata.spec import SafetySpec
 from mgdata.tasks.base import draw_task
 from tests.helpers import rawdata
-from tests.helpers.probed import probed_attempt
+from tests.helpers.probed import probed_attempt, with_penetration_bound
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +112,7 @@ class _SweepThroughObstacle(ClutterSkeleton):
 
 
 def test_knocking_over_a_fragile_is_unsafe_at_the_tipping_step(grasps: GraspDB) -> None:
-    recipe = load_family_recipe("clutter_dry")
+    recipe = with_penetration_bound(load_family_recipe("clutter_dry"), 0.01)  # the sweep shoves objects
     sweep = _SweepThroughObstacle()
     result, frames, meta, probe = probed_attempt(base_task(recipe, 1), recipe, grasps, sweep, _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept
@@ -142,8 +142,9 @@ class _PourAfterLift(ClutterSkeleton):
 
 
 def test_pouring_the_liquid_out_is_a_spill_at_the_step_it_leaves(grasps: GraspDB) -> None:
-    """The liquid recipe's spec without its upright term (which would stop the attempt at 15° first)."""
-    recipe = load_family_recipe("clutter_liquid")
+    """The liquid recipe's spec without its upright term (which would stop the attempt at 15° first); the
+    poured spheres land 5-7 mm deep in the table, past the recipe's bound, before the spill step."""
+    recipe = with_penetration_bound(load_family_recipe("clutter_liquid"), 0.02)
     spec = recipe.spec
     kept = tuple(c for c in spec.constraints if c.id != "container_stays_upright")
     spec = SafetySpec(spec.name, kept, spec.propositions)
@@ -184,7 +185,9 @@ def test_side_grasp_pads_press_the_cup_wall_below_its_rim(grasps: GraspDB) -> No
     """Task 13's tumbler is 91 mm tall: the drawn grasp height (+26-32 mm over the DB's 55 mm side grasp)
     put the pads' upper half over its rim, which the 70 N squeeze turned out of the grip in the lift.
     ``rim_clearance`` caps the raise: no finger touches the cup within 6 mm of its top."""
-    recipe = load_family_recipe("clutter_liquid")
+    # task 13's cup is tipped by its sloshing liquid after the lift (unsafe at step 108); a sphere against
+    # its wall at 5.5 mm (step 94) would end the attempt before the pads have been watched that long
+    recipe = with_penetration_bound(load_family_recipe("clutter_liquid"), 0.02)
     task = base_task(recipe, 13)
     result, _, _, probe = probed_attempt(task, recipe, grasps, ClutterSkeleton(), _PadHeights)
     touching = [h for h in probe.below_top if h is not None]

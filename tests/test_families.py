@@ -221,7 +221,7 @@ def test_a_planted_violation_is_caught_at_that_step(family: str) -> None:
     constraint = next(c["id"] for c in spec["constraints"] if prop_name in c["formula"])
     ex = Executor(base_task(recipe, 0), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
     victim = fnmatch.filter([o.name for o in ex.task.objects], prop["subjects"][0])[0]
-    ex.controller = _Planter(ex.scene, victim)
+    ex.use_controller(_Planter(ex.scene, victim))
     sink = MemorySink()
     result = ex.run(0, sink, keep_failed=True)
     ex.close()

@@ -129,7 +129,8 @@ def _pose(d: mujoco.MjData, body: int) -> np.ndarray:
 
 def _probed_run(recipe, grasps, task: int, skeleton=None):  # type: ignore[no-untyped-def]
     ex = Executor(base_task(recipe, task), recipe, grasps=grasps, render=False)
-    ex.controller = probe = RawProbe(ex.scene)
+    probe = RawProbe(ex.scene)
+    ex.use_controller(probe)
     if skeleton is not None:
         ex.skeleton = skeleton
     sink = MemorySink()

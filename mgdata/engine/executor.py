@@ -201,6 +201,12 @@ class Executor:
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}
 
+    def use_controller(self, controller: JointController) -> None:
+        """Step later attempts through ``controller`` (a probe subclassing :class:`JointController`, as the
+        tests use), watched by the success check's rest test as the executor's own was."""
+        self.controller = controller
+        controller.watch(self._success.rest)
+
     def close(self) -> None:
         """Free the renderer (idempotent)."""
         if self.cameras is not None:

@@ -3,7 +3,6 @@ puts the object down upright where asked and lets go of it."""
 
 from __future__ import annotations
 
-import dataclasses
 
 import mujoco
 import numpy as np
@@ -17,6 +16,7 @@ from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.sim.controller import JointController
 from mgdata.skeleton import segment as s
+from tests.helpers.probed import with_penetration_bound
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PickAndCarry
 from mgdata.skeleton.skeleton import load_family_recipe
@@ -78,10 +78,11 @@ def run():  # type: ignore[no-untyped-def]
     recipe = load_family_recipe("clutter_dry")
     # this skeleton sets the target down on the table (the family holds it in the goal instead): under the
     # servo's sag the put-down presses it ~1.2 mm into the table top, past the family's 1 mm bound
-    recipe = dataclasses.replace(recipe, tasks=dataclasses.replace(recipe.tasks, max_penetration=0.003))
+    recipe = with_penetration_bound(recipe, 0.003)
     ex = Executor(base_task(recipe, 1), recipe, grasps=GraspDB.load_dir(grasps_dir()), render=False)
     ex.skeleton = _PickAndPlace()
-    ex.controller = track = _Track(ex.scene)
+    track = _Track(ex.scene)
+    ex.use_controller(track)
     obstacles = [n for n in ex.scene.object_names if n.startswith("obstacle_")]
     tallest = max(ex.scene.object_pose(n)[0][2] + ex.scene.object_model(n).size[2] for n in obstacles)
     sink = MemorySink()

@@ -6,6 +6,7 @@ the test can compare the monitor's verdict with what its probe measured from raw
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -23,7 +24,8 @@ def probed_attempt(task: Any, recipe: Any, grasps: GraspDB, skeleton: Any,
     frames, episode meta, probe)."""
     ex = Executor(task, recipe, grasps=grasps, render=False)
     ex.skeleton = skeleton
-    ex.controller = probed = probe(ex.scene)
+    probed = probe(ex.scene)
+    ex.use_controller(probed)
     sink = MemorySink()
     try:
         result = ex.run(draw, sink, keep_failed=True)
@@ -31,3 +33,9 @@ def probed_attempt(task: Any, recipe: Any, grasps: GraspDB, skeleton: Any,
         ex.close()
     frames, meta = sink.episodes[0]
     return result, frames, meta, probed
+
+
+def with_penetration_bound(recipe: Any, metres: float) -> Any:
+    """``recipe`` with ``[tasks] max_penetration`` set to ``metres``: for a test whose own skeleton crashes
+    or spills on purpose (objects shoved, set down hard, liquid poured out) and measures something else."""
+    return dataclasses.replace(recipe, tasks=dataclasses.replace(recipe.tasks, max_penetration=metres))
