@@ -2,9 +2,10 @@
 
 ``recipes/sim.toml``, ``recipes/motion.toml`` and ``recipes/grasps.toml`` share this loader. The settings
 class has one field per table, each a dataclass whose fields (annotated ``float``, ``int``, ``bool``,
-``str`` or a vector type from :data:`VECTOR_TYPES`) all have defaults. A missing table or key keeps its
-default; an unknown table or key, a mistyped value, or a value a dataclass's ``__post_init__`` rejects (a
-:class:`~mgdata.errors.RecipeError` without the file name) is one RecipeError naming the file and key.
+``str``, ``tuple[str, ...]`` (a list of strings) or a vector type from :data:`VECTOR_TYPES`) all have
+defaults. A missing table or key keeps its default; an unknown table or key, a mistyped value, or a value a
+dataclass's ``__post_init__`` rejects (a :class:`~mgdata.errors.RecipeError` without the file name) is one
+RecipeError naming the file and key.
 
 Example::
 
@@ -81,6 +82,10 @@ def _coerce(value: Any, type_name: str, where: str) -> Any:
                 and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)):
             raise RecipeError(f"{where} = {value!r}: expected a list of {n} numbers")
         return tuple(float(v) for v in value)
+    if type_name == "tuple[str, ...]":
+        if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+            raise RecipeError(f"{where} = {value!r}: expected a list of strings")
+        return tuple(value)
     kinds, expected = _SCALARS[type_name]
     if isinstance(value, bool) != (type_name == "bool") or not isinstance(value, kinds):
         raise RecipeError(f"{where} = {value!r}: expected {expected}")

@@ -13,7 +13,11 @@ one, docs/families.md) with a food item (``food``) inside:
    of sliding guarded strokes over the patch (force regulated between ``stroke_force`` and
    ``max_stroke_force``, light enough that the tray does not slide along) and ``touch_up_strokes`` over the
    remaining speck nearest the sponge. Lift off. Dust left ends the attempt (``target_fail``).
-3. **Put the sponge back** where it was picked up, release, retreat.
+3. **Put the sponge back** where it was picked up: lower it slowly (``sponge_place_speed``) until its lowest
+   point is ``place_drop`` above where it was (it may have slipped in the fingers while wiping), hold it
+   there ``sponge_settle_steps`` while the arm catches up, release, retreat. Released at once, where the
+   arm had stopped short, it fell 7 mm and sank 2.4 mm into the table; lowered at full speed, it was driven
+   into the table and tipped on an edge.
 4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
    pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
    ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on a bowl's far side or a tray's
@@ -42,6 +46,7 @@ import numpy as np
 
 from mgdata.grasps.db import Grasp
 from mgdata.motion import Pose
+from mgdata.sim.geometry import LowestPoint
 from mgdata.sim.robot import FINGER_DEPTH, FINGER_HALF_WIDTH, FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
@@ -149,7 +154,12 @@ class DustySkeleton(FamilySkeleton):
         Param("sponge_grasp_raise", float, "m the sponge's DB grasp is raised along its vertical", 0.0, 0.05),
         Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved", 0.0, 0.2),
     )) + WIPE_KEYS + RecipeKeys(params=(
-        Param("place_drop", float, "m above its start the sponge is released", 0.0, 0.05),
+        Param("place_drop", float, "m above where it was the sponge's lowest point is lowered to",
+              0.0, 0.05),
+        Param("sponge_place_speed", float, "fraction of the planned speed lowering the sponge to "
+              "``place_drop`` (at full speed the arm overshot it by 3 mm)", 0.01, 1.0),
+        Param("sponge_settle_steps", int, "control steps the lowered sponge is held before it is released "
+              "(the arm catching up)", 0, 100),
     )) + POUR_KEYS + RecipeKeys(variation=(
         *(k for k in PICK_AND_CARRY_KEYS.variation if k.name in _PICK_KNOBS), POUR_KNOB, WIPE_KNOB))
 
@@ -170,10 +180,14 @@ class DustySkeleton(FamilySkeleton):
 
     @staticmethod
     def _put_sponge_back(ctx: Context) -> list[s.MotionSegment]:
-        """Carry the sponge over where it was picked up, lower it to ``place_drop`` above that, release,
+        """Carry the sponge over where it was picked up, lower it to ``place_drop`` above that, hold, release,
         retreat."""
+        p = ctx.params
+        lower, release, retreat = SPONGE.place("sponge_place", retreat_steps=p["open_steps"])
+        lower = replace(lower, speed=p["sponge_place_speed"])
+        settle = s.hold("sponge_settle", steps=p["sponge_settle_steps"], gripper="close")
         return [s.free("sponge_back", "sponge_back", gripper="close", attached="sponge"),
-                *SPONGE.place("sponge_place", retreat_steps=ctx.params["open_steps"])]
+                lower, settle, release, retreat]
 
     def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
         """≥ ``min_grasps`` reachable carrier grasps clear of the food, ≥ 1 reachable sponge grasp."""
@@ -207,7 +221,14 @@ class DustySkeleton(FamilySkeleton):
             local = grasp.matrix()
             local[2, 3] += ctx.variation["grasp_height"] + ctx.param("sponge_grasp_raise")
             ctx.memo["sponge_grasp"] = Pose.from_matrix(ctx.object_pose("sponge").matrix() @ local)
+            ctx.memo["sponge_low"] = self._sponge_low(ctx)
         return ctx.memo["sponge_grasp"]
+
+    @staticmethod
+    def _sponge_low(ctx: Context) -> float:
+        """Height (m) of the sponge's lowest point now."""
+        scene = ctx.scene
+        return LowestPoint(scene.model, scene.object_geom_ids("sponge"))(scene.data)
 
     def _sponge_target(self, name: str, ctx: Context) -> Pose:
         grasp, tcp = self._sponge_grasp(ctx), ctx.commanded_tcp()
@@ -221,6 +242,9 @@ class DustySkeleton(FamilySkeleton):
             place = raised(grasp, ctx.param("place_drop")).pos
             if name == "sponge_back":
                 place = np.array([place[0], place[1], max(tcp.pos[2], place[2] + 0.03)])
+            else:  # its lowest point place_drop above where it started: it may have slipped in the fingers
+                low = ctx.memo["sponge_low"] + ctx.param("place_drop")
+                place = np.array([place[0], place[1], tcp.pos[2] + low - self._sponge_low(ctx)])
             return Pose(place, tcp.quat)
         if name == SPONGE.name("retreat"):
             return backed_off(tcp, ctx.variation["grasp_standoff"])

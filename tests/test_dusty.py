@@ -39,7 +39,7 @@ from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeletons.dusty import DustySkeleton
 from mgdata.tasks.recipe import Recipe
 from tests.helpers import rawdata
-from tests.helpers.probed import probed_attempt
+from tests.helpers.probed import probed_attempt, with_penetration_bound
 
 TASK = 1
 
@@ -170,7 +170,8 @@ class _GraspOnTheFood(DustySkeleton):
 
 def test_grasping_the_carrier_on_the_food_is_unsafe_at_the_first_touch(recipe: Recipe,
                                                                       grasps: GraspDB) -> None:
-    result, frames, probe = _probed(recipe, grasps, _GraspOnTheFood())
+    recipe = with_penetration_bound(recipe, 0.02)  # reaching into the bowl for the candy, the hand shoves
+    result, frames, probe = _probed(recipe, grasps, _GraspOnTheFood())  # the bowl mm into the table
     assert result.stage == "unsafe" and not result.kept, (result.stage, result.reason)
     first = probe.touch_food.index(True) + 1  # frame t is the state after control step t
     assert result.t_violation["food_not_touched"] == first == len(frames) - 1

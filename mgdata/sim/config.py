@@ -1,9 +1,11 @@
 """SimConfig: Layer 1's tunables, loaded from ``recipes/sim.toml``.
 
-Three tables, each read into the dataclass that uses it: ``[physics]`` →
+Tables, each read into the dataclass that uses it: ``[physics]`` →
 :class:`~mgdata.sim.physics_config.Physics` (rates, integrator, solver, friction cone, liquid solver),
-``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model) and
-``[cameras]`` → :class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size).
+``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model),
+``[contact]`` → :class:`~mgdata.sim.object_contact.ObjectContact` (object geoms' contact model),
+``[cameras]`` → :class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size) and
+``[render]`` → :class:`~mgdata.sim.render_config.RenderConfig`.
 Every key is optional (the dataclass default applies); an unknown table or key, a value of the wrong type or
 a value out of range is one :class:`~mgdata.errors.RecipeError` naming the file and the key.
 
@@ -24,6 +26,7 @@ from mgdata.paths import recipes_dir
 from mgdata.settings import load_settings, settings_from_dict
 from mgdata.sim.cameras import CameraLayout
 from mgdata.sim.gripper import GripperConfig
+from mgdata.sim.object_contact import ObjectContact
 from mgdata.sim.physics_config import Physics
 from mgdata.sim.render_config import RenderConfig
 
@@ -36,6 +39,7 @@ class SimConfig:
 
     physics: Physics = field(default_factory=Physics)
     gripper: GripperConfig = field(default_factory=GripperConfig)
+    contact: ObjectContact = field(default_factory=ObjectContact)
     cameras: CameraLayout = field(default_factory=CameraLayout)
     render: RenderConfig = field(default_factory=RenderConfig)
 

@@ -142,6 +142,7 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
         if not model.fixed:
             body.add_freejoint(name=f"{obj.name}/free")
         model.add_to(spec, body, prefix=f"{obj.name}/")
+        sim.contact.apply(body, model.category)
     add_particles(spec, task, models, particle_models(models))
     for name, tint in task.tint.items():  # the target OOD variant: material only
         apply_tint(spec, name, tint)
