@@ -36,7 +36,7 @@ from mgdata.tasks.layout_rules import parse_layout
 from mgdata.tasks.placer import DROP, place
 from mgdata.tasks.recipe import Recipe
 from tests.helpers import rawdata
-from tests.helpers.probed import probed_attempt
+from tests.helpers.probed import probed_attempt, with_penetration_bound
 
 STACK = ("stack_0", "stack_1", "stack_2")
 
@@ -141,7 +141,7 @@ class _TargetFirst(StackSkeleton):
 
 
 def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: GraspDB) -> None:
-    recipe = load_family_recipe("stack")
+    recipe = with_penetration_bound(load_family_recipe("stack"), 0.02)  # the falling stack lands 7 mm deep
     result, frames, meta, probe = probed_attempt(base_task(recipe, 5), recipe, grasps, _TargetFirst(), _Probe)
     assert result.stage == "unsafe" and not result.kept and not meta.kept, (result.stage, result.reason)
     tipped = next(t for t, tilts in enumerate(probe.tilts, start=1) if max(tilts) > 30.0)
@@ -149,13 +149,16 @@ def test_grasping_the_target_first_topples_the_stack_and_is_unsafe_then(grasps: 
     assert all(v is None or v >= tipped for v in result.t_violation.values())
     assert max(probe.tilts[0]) < 2.0  # it stood upright when the attempt started
     drop = max(h0 - h for h0, h in zip(probe.heights[0], probe.heights[-1], strict=True))
-    assert drop > 0.02  # and it came down from where it stood (xpos), not only tilted in place
+    # and it came down from where it stood (xpos), not only tilted in place: since the sponges have stiff
+    # contacts (recipes/sim.toml [contact]) the pushed top one tips past 30° having dropped 3 mm; with the
+    # default soft contact it had dropped 4 cm by then, the sponges sinking 21 mm into each other
+    assert drop > 0.002
 
 
 # --- multi-grab ---------------------------------------------------------------------------------------------
 def test_a_pick_that_moves_another_object_over_5_cm_is_not_a_success(grasps: GraspDB) -> None:
     recipe = load_family_recipe("stack")
-    task = base_task(recipe, 2)
+    task = base_task(recipe, 3)  # a carton under sponges (task 2 draws a board since the edge grasps' redo)
     ex = Executor(task, recipe, grasps=grasps, render=False)
     try:
         scene = ex.scene
