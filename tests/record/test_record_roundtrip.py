@@ -137,3 +137,18 @@ def test_av1_datasets_append_and_validate(tmp_path: Path) -> None:
         "video.codec"] == "av1"
     assert reader.frames(1, "left").shape == (9, 64, 64, 3)
     assert validate_dataset(root, decode_all=True).ok
+
+
+def test_a_dataset_written_before_the_penetration_columns_still_reads(tmp_path: Path) -> None:
+    """Episodes tables without ``mgdata/max_penetration``, ``penetration_step`` and ``penetration_bodies``
+    (datasets older than the figure) read with all three ``None``."""
+    root = write_dataset(tmp_path / "old", small_episodes((12, 9)), hold_steps=5)
+    dropped = ("mgdata/max_penetration", "mgdata/penetration_step", "mgdata/penetration_bodies")
+    for path in (root / layout.EPISODES_DIR).rglob("*.parquet"):
+        table = pq.read_table(path)
+        assert all(name in table.column_names for name in dropped)
+        pq.write_table(table.drop_columns(list(dropped)), path)
+    metas = [r.meta for r in DatasetReader(root).records()]
+    assert len(metas) == 2
+    assert all(m.max_penetration is None and m.penetration_step is None and m.penetration_bodies is None
+               for m in metas)
