@@ -38,7 +38,7 @@ STAGES: dict[str, str] = {
     "guarded_no_contact": "a guarded move reached its distance limit without its contact condition",
     "guarded_stalled": "a guarded move stopped advancing before its contact condition held",
     "unsafe": "the safety monitor reported a violation",
-    "penetration": "a contact sank deeper than the recipe's max_penetration (objects passing into each other)",
+    "penetration": "a contact sank deeper than the recipe's max_penetration (objects pressed into others)",
     "sim_diverged": "the physics diverged (NaN or runaway accelerations)",
     "timeout": "the attempt ran past the family's step horizon",
     "goal_not_reached": "all segments ran but the goal did not hold at rest for the gate's window",

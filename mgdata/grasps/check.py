@@ -37,7 +37,7 @@ import numpy as np
 from mgdata.errors import GraspDBError
 from mgdata.grasps.db import Grasp
 from mgdata.grasps.edge import needs_overhang, push_start, shortfall
-from mgdata.grasps.rest import resting_target
+from mgdata.grasps.rest import first_ik, resting_target
 from mgdata.motion import AllowedContacts, Attachment, MotionFailure, MotionPlanner, Pose, load_motion_config
 from mgdata.sim import robot
 from mgdata.sim.assets import get_model
@@ -150,8 +150,11 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
         world = grasp.world_matrix(scene.model, scene.data, "object")
         target = Pose.from_matrix(world)
         pre = Pose(target.pos - world[:3, 2] * cfg.standoff, target.quat)
-        edge = needs_overhang(grasp)  # as the edge pick: the pre-grasp's IK from home first, the approach
-        q_pre = _first_ik(planner, pre, (robot.HOME_Q, q) if edge else (q,), rng)  # aimed where the arm rests
+        # as the edge pick: an edge pinch's pre-grasp IK from home first; its approach aimed at rest
+        edge = needs_overhang(grasp)
+        q_pre = first_ik(planner, pre, (robot.HOME_Q,), rng, collision_free=True) if edge else None
+        if q_pre is None:
+            q_pre = planner.ik(pre, q, rng, collision_free=True)
         if edge:
             target = resting_target(planner, scene.model, target, (q_pre,),
                                     np.random.default_rng(np.random.SeedSequence([cfg.seed, word, 1])))
@@ -165,18 +168,6 @@ def check_grasp(model: str, grasp: Grasp, cfg: GraspCheckConfig) -> tuple[str, s
     if grasp.frame and art is not None and art.kind == "slide":
         return _pull(scene, planner, ctl, q, rng, cfg)
     return _lift(scene, planner, ctl, q, rng, cfg)
-
-
-def _first_ik(planner: MotionPlanner, pose: Pose, seeds: tuple[np.ndarray, ...],
-              rng: np.random.Generator) -> np.ndarray:
-    """A collision-free IK solution for ``pose`` near the first of ``seeds`` that has one (else the last
-    seed's ``MotionFailure``)."""
-    for seed in seeds[:-1]:
-        try:
-            return planner.ik(pose, seed, rng, collision_free=True)
-        except MotionFailure:
-            pass
-    return planner.ik(pose, seeds[-1], rng, collision_free=True)
 
 
 def _push_to_edge(scene: Scene, planner: MotionPlanner, ctl: JointController, q: np.ndarray,

@@ -30,10 +30,16 @@ def resting_target(planner: MotionPlanner, model: mujoco.MjModel, pose: Pose,
     solution near the first of ``seeds`` that has one (a half-turn-rolled pinch is often out of the solver's
     reach from where a push leaves the arm, not from home); ``pose`` itself where none has (a plan to it then
     fails as it would have)."""
+    q = first_ik(planner, pose, seeds, rng)
+    return pose if q is None else planner.fk(ArmServo(model).rest_command(q))
+
+
+def first_ik(planner: MotionPlanner, pose: Pose, seeds: Sequence[np.ndarray], rng: np.random.Generator, *,
+             collision_free: bool = False) -> np.ndarray | None:
+    """An IK solution for ``pose`` near the first of ``seeds`` that has one (``None`` where none has)."""
     for seed in seeds:
         try:
-            q = planner.ik(pose, seed, rng)
+            return planner.ik(pose, seed, rng, collision_free=collision_free)
         except MotionFailure:
             continue
-        return planner.fk(ArmServo(model).rest_command(q))
-    return pose
+    return None

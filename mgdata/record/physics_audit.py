@@ -22,6 +22,7 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -114,14 +115,15 @@ class PhysicsAuditor:
             set_physics_state(model, data, ep.physics_state[t])
             p = deepest_contact(model, data)
             if p.depth > deepest.depth:
-                deepest = p.__class__(p.depth, p.body1, p.body2, t)
+                deepest = dataclasses.replace(p, step=t)
             if t >= hold_from - 1 and bodies:
                 poses.append((data.xipos[bodies].copy(), data.xquat[bodies].copy()))
         problems = []
         recorded = ep.meta.max_penetration
         if recorded is not None and abs(recorded - deepest.depth) > DEPTH_TOL:
-            problems.append(f"{where}: mgdata/max_penetration is {recorded * 1000:.3f} mm, its states' deepest "
-                            f"contact is {deepest.depth * 1000:.3f} mm ({deepest.bodies}, frame {deepest.step})")
+            problems.append(f"{where}: mgdata/max_penetration is {recorded * 1000:.3f} mm, its states' "
+                            f"deepest contact is {deepest.depth * 1000:.3f} mm ({deepest.bodies}, frame "
+                            f"{deepest.step})")
         if ep.meta.kept and deepest.depth > self.gate.max_penetration + DEPTH_TOL:
             problems.append(f"{where}: kept, but {deepest.body1} and {deepest.body2} overlap by "
                             f"{deepest.depth * 1000:.2f} mm at frame {deepest.step} (max_penetration "

@@ -352,9 +352,10 @@ def _check_physics(reader: DatasetReader, records: list[EpisodeRecord], report: 
     if measured:
         worst = max(measured, key=lambda r: r.meta.max_penetration or 0.0)
         m = worst.meta
-        report.notes.append(f"deepest contact: {(m.max_penetration or 0.0) * 1000:.2f} mm (episode {worst.index}, "
-                            f"frame {m.penetration_step}, {m.penetration_bodies or 'no overlap'}); kept demos "
-                            f"may reach {gate.max_penetration * 1000:.2f} mm")
+        bodies = m.penetration_bodies or "no overlap"
+        report.notes.append(f"deepest contact: {(m.max_penetration or 0.0) * 1000:.2f} mm (episode "
+                            f"{worst.index}, frame {m.penetration_step}, {bodies}); kept demos may reach "
+                            f"{gate.max_penetration * 1000:.2f} mm")
 
 
 def _check_unreferenced(reader: DatasetReader, records: list[EpisodeRecord],

@@ -39,10 +39,6 @@ class Penetration:
         """``"body1|body2"`` (sorted), or "" without an overlap."""
         return "|".join(sorted((self.body1, self.body2))) if self.depth > 0.0 else ""
 
-    def deeper(self, other: Penetration) -> Penetration:
-        """The deeper of the two (``self`` on a tie, so the earliest frame is kept)."""
-        return other if other.depth > self.depth else self
-
 
 NONE = Penetration()
 

@@ -3,7 +3,6 @@ puts the object down upright where asked and lets go of it."""
 
 from __future__ import annotations
 
-
 import mujoco
 import numpy as np
 import pytest
@@ -16,11 +15,11 @@ from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.sim.controller import JointController
 from mgdata.skeleton import segment as s
-from tests.helpers.probed import with_penetration_bound
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.pick_and_carry import PickAndCarry
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeletons.clutter import ClutterSkeleton
+from tests.helpers.probed import with_penetration_bound
 
 
 class _Track(JointController):

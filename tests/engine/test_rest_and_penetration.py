@@ -14,6 +14,7 @@ from mgdata.engine.init_gate import base_task
 from mgdata.episode.gate import RestCheck, SuccessGate
 from mgdata.episode.runner import EpisodeRunner
 from mgdata.record.episode import MemorySink
+from mgdata.record.physics import STATE_SPEC
 from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
 from mgdata.record.reader import EpisodeData
 from mgdata.record.recorder import Recorder
@@ -134,7 +135,7 @@ def _episode(scene: Scene, bound: float | None, steps: int = 4) -> tuple[Episode
 
 
 def test_the_episode_records_its_deepest_contact_and_the_bound_refuses_deeper(scene: Scene) -> None:
-    runner, sink, (ends, depths) = _episode(scene, bound=None)
+    runner, _, (ends, depths) = _episode(scene, bound=None)
     assert ends[-1] == "passed"
     meta = runner.finish(seed=0, draw_index=0, source="planner")
     assert meta.kept and meta.max_penetration == pytest.approx(max(depths), abs=1e-12)
@@ -142,7 +143,7 @@ def test_the_episode_records_its_deepest_contact_and_the_bound_refuses_deeper(sc
     assert 0.00005 < meta.max_penetration < 0.001  # the resting jar sinks a fraction of a millimetre
 
     tight = 0.5 * max(depths)  # a bound the resting jar exceeds: the episode ends at once, not kept
-    runner, sink, (ends, depths) = _episode(scene, bound=tight)
+    runner, _, (ends, depths) = _episode(scene, bound=tight)
     assert ends == ["penetration"]  # frame 0 already sinks deeper: the first step ends it
     meta = runner.finish(seed=0, draw_index=0, source="planner", stage="penetration", reason="too deep")
     assert not meta.kept and meta.failure_stage == "penetration"
@@ -152,10 +153,12 @@ def test_the_episode_records_its_deepest_contact_and_the_bound_refuses_deeper(sc
 def _as_episode(frames: list, meta, index: int = 0) -> EpisodeData:
     n = len(frames)
     return EpisodeData(index=index, task="t", meta=meta, state=np.stack([f.state for f in frames]),
-                       action=np.stack([f.action for f in frames]), labels=np.stack([f.labels for f in frames]),
+                       action=np.stack([f.action for f in frames]),
+                       labels=np.stack([f.labels for f in frames]),
                        dfa_state=np.stack([f.dfa_state for f in frames]),
                        violated=np.stack([f.violated for f in frames]),
-                       engaged=np.array([f.engaged for f in frames]), success=np.array([f.success for f in frames]),
+                       engaged=np.array([f.engaged for f in frames]),
+                       success=np.array([f.success for f in frames]),
                        timestamp=np.arange(n) / 20.0, frame_index=np.arange(n), global_index=np.arange(n),
                        physics_state=np.stack([f.physics_state for f in frames]))
 
@@ -174,12 +177,10 @@ def test_the_physics_audit_recomputes_the_record_and_catches_motion_in_the_hold(
     # the jar slid 1 mm between two hold frames: 0.02 m/s, four times the rest speed
     m, d = scene.model, scene.data
     moved = list(frames)
-    mujoco.mj_setState(m, d, frames[-1].physics_state, mujoco.mjtState.mjSTATE_INTEGRATION
-                       & ~(mujoco.mjtState.mjSTATE_QFRC_APPLIED | mujoco.mjtState.mjSTATE_XFRC_APPLIED))
+    mujoco.mj_setState(m, d, frames[-1].physics_state, STATE_SPEC)
     d.qpos[m.jnt_qposadr[m.body_jntadr[scene.object_body("jar")]]] += 0.001
     state = frames[-1].physics_state.copy()
-    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_INTEGRATION
-                       & ~(mujoco.mjtState.mjSTATE_QFRC_APPLIED | mujoco.mjtState.mjSTATE_XFRC_APPLIED))
+    mujoco.mj_getState(m, d, state, STATE_SPEC)
     moved[-1] = dataclasses.replace(frames[-1], physics_state=state)
     loose = dataclasses.replace(meta, max_penetration=None)  # the moved frame's contact is not the record's
     problems = auditor.audit(_as_episode(moved, loose), scene.model)
