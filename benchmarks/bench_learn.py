@@ -37,6 +37,7 @@ import json
 import os
 import re
 import resource
+import shlex
 import shutil
 import signal
 import subprocess
@@ -87,9 +88,10 @@ def run(cmd: list[str], env: dict[str, str] | None = None, logfile: Path | None 
 
 
 def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, str] | None = None,
-              grasp_cycle: int = 0) -> Path:
+              grasp_cycle: int = 0, amplitude: float | None = None) -> Path:
     """An ``MGDATA_ROOT`` copy whose ``recipes/<family>.toml`` has ``count`` tasks, ``cameras``, for each
-    role in ``pins`` a model pool of that one model, and ``grasp_cycle`` in ``[params]``."""
+    role in ``pins`` a model pool of that one model, ``grasp_cycle`` in ``[params]`` and, if given, the
+    ``[recovery] amplitude``."""
     if out.exists():
         shutil.rmtree(out)
     (out / "recipes").mkdir(parents=True)
@@ -107,6 +109,8 @@ def make_root(out: Path, family: str, count: int, cameras: str, pins: dict[str, 
                       count=1)
     text = re.sub(r"(?m)^grasp_cycle = .*\n", "", text)
     text = re.sub(r"(?m)^\[params\]\s*$", f"[params]\ngrasp_cycle = {grasp_cycle}", text, count=1)
+    if amplitude is not None:
+        text += f"\n[recovery]\namplitude = {amplitude}\n"
     (out / "recipes" / f"{family}.toml").write_text(text)
     return out
 
@@ -265,6 +269,105 @@ def summarise(records: list[dict], label: str) -> dict:
             "ttv": m["ttv"], "ends": ends}
 
 
+PASSED_ON = {"--ablation", "--out", "--tasks", "--recovery", "--amplitude", "--seed", "--heldout-from",
+             "--scenarios-from", "--reuse"}
+
+
+def arm_args(spec: str, args: argparse.Namespace) -> tuple[list[str], int]:
+    """The bench arguments of one ablation arm (``dart+x5+seed=1001``) and the layouts it trains on."""
+    tasks, extra = args.tasks, ["--seed", str(args.seed)]
+    for token in spec.split("+"):
+        if token in ("dart", "replan"):
+            extra += ["--recovery", token]
+        elif token.startswith("a="):
+            extra += ["--amplitude", token[2:]]
+        elif re.fullmatch(r"x\d+", token):
+            tasks = args.tasks * int(token[1:])
+        elif token.startswith("seed="):
+            extra[1] = token[5:]
+        elif token != "plain":
+            raise SystemExit(f"--ablation: unknown arm token {token!r} in {spec!r} (expected plain, dart, "
+                             "replan, a=AMPLITUDE, xK, seed=N)")
+    return ["--tasks", str(tasks), *extra], tasks
+
+
+def passed_on(argv: list[str]) -> list[str]:
+    """``argv`` without the options an ablation sets per arm."""
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+            continue
+        key = a.split("=", 1)[0]
+        if key in PASSED_ON:
+            skip = "=" not in a and key != "--reuse"
+            continue
+        out.append(a)
+    return out
+
+
+def ablation(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
+    """Run each arm of ``--ablation`` as its own bench run under ``--out/<arm>`` (the first builds the
+    scenarios, the others score on them), then print one table."""
+    if args.protocol != "family":
+        parser.error("--ablation runs the family protocol")
+    specs = [a for a in args.ablation.split(",") if a]
+    arms = {spec: arm_args(spec, args) for spec in specs}
+    first_heldout = max(n for _, n in arms.values())
+    if args.heldout_from is not None:  # fixed up front, so that arms added later share the starts
+        if args.heldout_from < first_heldout:
+            parser.error(f"--heldout-from {args.heldout_from}: an arm trains on layouts up to "
+                         f"{first_heldout - 1}")
+        first_heldout = args.heldout_from
+    out = args.out.resolve()
+    base = passed_on(sys.argv[1:])
+    reports = {}
+    for i, (spec, (extra, _)) in enumerate(arms.items()):
+        arm_out = out / spec.replace("=", "").replace("+", "_")
+        cmd = [sys.executable, str(Path(__file__).resolve()), *base, *extra, "--heldout-from",
+               str(first_heldout), "--out", str(arm_out)]
+        if i:
+            cmd += ["--scenarios-from", str(out / specs[0].replace("=", "").replace("+", "_"))]
+        if args.reuse:
+            cmd.append("--reuse")
+        if not (args.reuse and (arm_out / "report.json").is_file()):
+            log(f"arm {spec}: " + " ".join(cmd[1:]))
+            subprocess.run(cmd, check=True)
+        reports[spec] = json.loads((arm_out / "report.json").read_text())
+    (out / "ablation.json").write_text(json.dumps(reports, indent=1, default=str))
+    print_ablation(reports)
+
+
+def _rate(r: dict | None, key: str) -> str:
+    """``SSR 29.0 ± 4.5`` style: the rate with its binomial standard error over the starts."""
+    if not r or r.get(key) is None:
+        return "-"
+    p, n = float(r[key]) / 100.0, max(int(r["n"]), 1)
+    return f"{100 * p:4.1f} ± {100 * (p * (1 - p) / n) ** 0.5:3.1f}"
+
+
+def print_ablation(reports: dict[str, dict]) -> None:
+    """One row per arm: data, yield, cost, held-out SSR / EVR / TSR and trained-layout SSR (% ± s.e.)."""
+    head = ("arm", "demos", "frames", "yield", "kept/CPU-h", "steps", "held-out SSR", "EVR", "TSR",
+            "trained SSR", "trained EVR")
+    rows = []
+    for spec, rep in reports.items():
+        d, ev = rep["data"], rep.get("eval", {})
+        cpu_h = max(float(d["cpu_s"]), 1e-9) / 3600.0
+        kept_share = 100 * d["episodes"] / max(d["attempts"], 1)
+        rows.append((spec, str(d["episodes"]), str(d["frames"]), f"{kept_share:.0f} %",
+                     f"{d['episodes'] / cpu_h:.0f}", str(rep["train"]["steps"]),
+                     _rate(ev.get("heldout"), "ssr"), _rate(ev.get("heldout"), "evr"),
+                     _rate(ev.get("heldout"), "tsr"), _rate(ev.get("base"), "ssr"),
+                     _rate(ev.get("base"), "evr")))
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
+    print("\n" + "  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)))
+    for r in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
+    for spec, rep in reports.items():
+        print(f"{spec}: {rep.get('command', '')}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--protocol", choices=("family", "single"), default="family")
@@ -304,29 +407,51 @@ def main() -> None:
     p.add_argument("--reuse", action="store_true",
                    help="reuse data, state view, scenarios and checkpoint already under --out "
                    "(a missing state view is exported again from the data)")
+    p.add_argument("--recovery", choices=("off", "dart", "replan"), default="off",
+                   help="generate the training demos with this recovery mode (mgdata generate --recovery)")
+    p.add_argument("--amplitude", type=float, default=None,
+                   help="the recipe copy's [recovery] amplitude (rad; default: the recipe's)")
+    p.add_argument("--heldout-from", type=int, default=None,
+                   help="first held-out task (default: right after the trained ones); an ablation puts it "
+                   "after its largest arm's layouts so that every arm is scored on the same starts")
+    p.add_argument("--scenarios-from", type=Path, default=None,
+                   help="use the seen and held-out scenarios another run built under this --out")
+    p.add_argument("--ablation", default=None, metavar="ARMS",
+                   help="run one arm per comma-separated spec, the same learner, steps, seed and held-out "
+                   "starts, only the data changed, and print their table; a spec joins with '+': "
+                   "'plain', 'dart' or 'replan' (recovery), 'a=0.05' (its amplitude), 'x5' (5x the layouts, "
+                   "--per-task each), 'seed=1001' (another training seed); e.g. plain,dart,x5,dart+seed=1001")
     p.add_argument("--stop-after", choices=("data", "train"), default=None)
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
+    if args.ablation:
+        ablation(args, p)
+        return
     single = args.protocol == "single"
     per_task = args.per_task or (3 if single else 8)
     heldout = args.heldout if args.heldout is not None else (30 if single else 100)
     ntasks = args.layouts if single else args.tasks
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
-    count = ntasks + heldout
+    first_heldout = ntasks if args.heldout_from is None else args.heldout_from
+    if first_heldout < ntasks:
+        raise SystemExit(f"--heldout-from {first_heldout} would score trained layouts (0-{ntasks - 1})")
+    count = first_heldout + heldout
     pins = task0_models(args.family) if single else None
-    train_root = make_root(out / "root_train", args.family, count, "[]", pins, args.grasp_cycle)
+    train_root = make_root(out / "root_train", args.family, count, "[]", pins, args.grasp_cycle,
+                           args.amplitude)
     eval_root = make_root(out / "root_eval", args.family, count, '["front", "wrist"]', pins, args.grasp_cycle)
     t_start = time.time()
     report: dict = {"protocol": args.protocol, "family": args.family, "per_task": per_task, "tasks": ntasks,
-                    "grasp_cycle": args.grasp_cycle,
+                    "grasp_cycle": args.grasp_cycle, "recovery": args.recovery, "amplitude": args.amplitude,
+                    "heldout_tasks": f"{first_heldout}-{count - 1}", "command": shlex.join(sys.argv),
                     "heldout": heldout, "args": {k: str(v) for k, v in vars(args).items()}}
     data, state = out / "data", out / "data_state"
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.time()
     if not (args.reuse and (data / "meta/info.json").is_file()):
         run([*MGDATA, "generate", "--family", args.family, "--tasks", f"0-{ntasks - 1}", "--per-task",
-             str(per_task), "--workers", str(args.workers), "--out", str(data)],
+             str(per_task), "--workers", str(args.workers), "--out", str(data), "--recovery", args.recovery],
             {"MGDATA_ROOT": str(train_root)}, out / "generate.log")
     if not (args.reuse and state.is_dir()):
         shutil.rmtree(state, ignore_errors=True)
@@ -336,13 +461,15 @@ def main() -> None:
     report["data"] = {"episodes": info["total_episodes"], "frames": info["total_frames"],
                       "wall_s": round(time.time() - t0, 1),
                       "cpu_s": round(c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, 1),
+                      "attempts": json.loads((data / "meta/mgdata_generate.json").read_text())["attempts"],
                       "environment_state": info["features"]["observation.environment_state"]["names"],
                       "spread": demo_spread(data)}
     log(f"demos alike: {report['data']['spread']}")
     log(f"data: {report['data']['episodes']} episodes, {report['data']['frames']} frames")
-    scen = {"seen": out / "scen_seen", "heldout": out / "scen_heldout"}
+    shared = args.scenarios_from.resolve() if args.scenarios_from else out
+    scen = {"seen": shared / "scen_seen", "heldout": shared / "scen_heldout"}
     conds = ["base", *[c for c in args.variants.split(",") if c]]
-    if not (args.reuse and (scen["seen"] / "manifest.json").exists()):
+    if args.scenarios_from is None and not (args.reuse and (scen["seen"] / "manifest.json").exists()):
         seen = min(args.seen or ntasks, ntasks)
         cmd = [*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"0-{seen - 1}",
                "--workers", str(args.workers), "--out", str(scen["seen"])]
@@ -350,7 +477,8 @@ def main() -> None:
             cmd += ["--condition", c]
         run(cmd, {"MGDATA_ROOT": str(eval_root)}, out / "scen_seen.log")
         if heldout:
-            run([*MGDATA, "scenarios", "build", "--family", args.family, "--tasks", f"{ntasks}-{count - 1}",
+            run([*MGDATA, "scenarios", "build", "--family", args.family, "--tasks",
+                 f"{first_heldout}-{count - 1}",
                  "--condition", "base", "--workers", str(args.workers), "--out", str(scen["heldout"])],
                 {"MGDATA_ROOT": str(eval_root)}, out / "scen_heldout.log")
     if args.stop_after == "data":

@@ -98,13 +98,16 @@ def _check_gated(recipe, k: int) -> None:  # type: ignore[no-untyped-def]
     assert all(not o.name.startswith("_") for o in task.objects)
 
 
-@pytest.fixture(scope="module", params=FAMILIES)
+@pytest.fixture(scope="module", params=[*FAMILIES, "jar+dart"])
 def generated(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
-    family = request.param
+    """A short generate of each family, and of the jar with perturbed execution (``--recovery dart``: the
+    same contract holds for the perturbed demo)."""
+    family, _, recovery = request.param.partition("+")
     tmp = tmp_path_factory.mktemp(family)
     out = tmp / family
     cmd = [*MGDATA, "generate", "--family", family, "--n", "1", "--out", str(out), "--recipe",
-           str(_small_recipe(tmp, family)), "--tasks", "0", "--workers", "1", "--max-attempts", "4"]
+           str(_small_recipe(tmp, family)), "--tasks", "0", "--workers", "1", "--max-attempts", "4",
+           "--recovery", recovery or "off"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1200)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return family, out

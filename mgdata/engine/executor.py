@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgdata.engine.guarded import GuardedMove
+from mgdata.engine.perturbation import Perturbation
 from mgdata.episode.gate import AttemptFailed, SuccessGate
 from mgdata.episode.runner import EpisodeRunner
 from mgdata.episode.success import SuccessCheck
@@ -160,7 +161,8 @@ def dataset_schema(recipe: Recipe) -> DatasetSchema:
     return DatasetSchema(fps=fps, cameras=recipe.tasks.cameras, image_height=size, image_width=size,
                          propositions=recipe.spec.proposition_names,
                          constraints=tuple(c.id for c in recipe.spec.constraints),
-                         physics_state_size=state_size(build_scene(_first_layout(recipe)).model))
+                         physics_state_size=state_size(build_scene(_first_layout(recipe)).model),
+                         executed_action=recipe.recovery.perturbs)
 
 
 def _first_layout(recipe: Recipe) -> TaskSpec:
@@ -198,6 +200,7 @@ class Executor:
         self.cameras = CameraRig(self.scene, recipe.tasks.cameras, task.image_size) \
             if render and recipe.tasks.cameras else None
         self._success = SuccessCheck(self.controller, recipe)
+        self.perturbation = Perturbation(recipe.recovery) if recipe.recovery.perturbs else None
         self.grasps = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
                        if o.model in grasps.objects}
 
@@ -229,13 +232,15 @@ class Executor:
                                max_penetration=settings.max_penetration)
         state = _Run(ctx, runner)
         stage = reason = segment = None
+        if self.perturbation is not None:
+            self.perturbation.reset()
         runner.start()
         try:
             segments = list(self.skeleton.segments(ctx))
             last_motion = max((i for i, seg in enumerate(segments) if seg.kind != "hold"), default=-1)
             for i, seg in enumerate(segments):
                 segment = seg.name
-                state.holding = i > last_motion
+                state.holding, state.index = i > last_motion, i
                 self._segment(seg, ctx, state)
             segment, state.holding = "settle", True
             for _ in range(settings.settle_steps):
@@ -256,9 +261,12 @@ class Executor:
         meta, grasp_id = None, ctx.memo.get("grasp_id")
         t_engage, t_violation = recorder.t_engage, recorder.first_violation
         if kept or keep_failed:
+            variation = var.as_meta()
+            if self.perturbation is not None:
+                variation["perturbation"] = self.perturbation.as_meta()
             meta = recorder.finish(seed=var.seed, draw_index=draw, kept=kept, success=gate.passed,
                                    failure_stage=stage, failure_reason=reason, grasp_id=grasp_id,
-                                   variation=var.as_meta())
+                                   variation=variation)
         else:
             recorder.discard()
         return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, runner.steps, ok,
@@ -278,13 +286,50 @@ class Executor:
             return
         with state.runner.timings.measure("planning"):
             traj = slowed(self._plan(seg, ctx), seg.speed)
-        for q in traj.q[1:]:
-            self._step(q, grip, state)
+        pert, targets = self.perturbation, traj.q[1:]
+        if pert is None:
+            for q in targets:
+                self._step(q, grip, state)
+        elif pert.settings.mode == "dart":  # the plan plus a smooth offset; the actions stay the plan's
+            rng = ctx.variation.rng(f"perturb/{state.index}/{seg.name}")
+            offsets = pert.segment(state.index, seg.name, rng, len(targets), state.runner.steps)
+            for q, dq in zip(targets, offsets, strict=True):
+                self._step(q, grip, state, q + dq)
+        elif seg.kind != "reverse" and len(targets) >= 3 * pert.settings.push_steps:
+            traj = self._push_and_replan(seg, ctx, state, traj, grip)
+        else:  # replan: a reversal retraces its segment; a short segment has no room for a push
+            for q in targets:
+                self._step(q, grip, state)
         ctx.executed[seg.name] = traj
 
-    def _plan(self, seg: MotionSegment, ctx: Context) -> JointTrajectory:
+    def _push_and_replan(self, seg: MotionSegment, ctx: Context, state: _Run, traj: JointTrajectory,
+                         grip: float) -> JointTrajectory:
+        """Execute ``traj`` up to a drawn step, push the arm's targets off it (the actions stay the plan's),
+        then plan the rest of the segment again from the pushed configuration and execute that; returns
+        the replanned trajectory (what a later reversal of the segment retraces)."""
+        assert self.perturbation is not None
+        rng = ctx.variation.rng(f"perturb/{state.index}/{seg.name}")
+        targets = traj.q[1:]
+        k0, offsets = self.perturbation.push(state.index, seg.name, rng, len(targets), state.runner.steps)
+        for q in targets[:k0]:
+            self._step(q, grip, state)
+        for q, dq in zip(targets[k0:k0 + len(offsets)], offsets, strict=True):
+            self._step(q, grip, state, q + dq)
+        pushed = targets[k0 + len(offsets) - 1] + offsets[-1]
+        with state.runner.timings.measure("planning"):
+            rest = slowed(self._plan(seg, ctx, start=pushed, goal=traj.q[-1]), seg.speed)
+        self.perturbation.replanned(len(rest.q) - 1)
+        for q in rest.q[1:]:
+            self._step(q, grip, state)
+        return rest
+
+    def _plan(self, seg: MotionSegment, ctx: Context, start: np.ndarray | None = None,
+              goal: np.ndarray | None = None) -> JointTrajectory:
+        """Plan ``seg`` from the last command (or ``start``); a free segment to its target's IK solution
+        (or the configuration ``goal``)."""
         planner = self.planner
         planner.sync(self.scene.data)
+        q_start = ctx.q_cmd if start is None else start
         if seg.kind == "reverse":
             if seg.of not in ctx.executed:
                 raise AttemptFailed("target_fail", f"reverse of {seg.of!r}, which has not run yet", seg.name)
@@ -297,13 +342,14 @@ class Executor:
         riders = tuple(b for r in seg.riders for b in self.scene.loose_bodies(r))
         allowed = seg.allow + AllowedContacts(tuple((ROOT_BODY, b) for b in riders))
         attached = self._attachment(seg.attached, riders) if seg.attached else None
-        rng = ctx.variation.rng(f"plan/{seg.name}")
+        rng = ctx.variation.rng(f"plan/{seg.name}" if start is None else f"replan/{seg.name}")
         if seg.kind == "linear":
-            return planner.linear(ctx.q_cmd, target, rng, orientation=seg.orientation, allowed=allowed,
+            return planner.linear(q_start, target, rng, orientation=seg.orientation, allowed=allowed,
                                   attached=attached)
-        seed = ctx.q_hints.get(seg.target, ctx.q_cmd) if isinstance(seg.target, str) else ctx.q_cmd
-        q_goal = planner.ik(target, seed, rng, collision_free=True, allowed=allowed, attached=attached)
-        return planner.free(ctx.q_cmd, q_goal, rng, allowed=allowed, attached=attached)
+        if goal is None:
+            seed = ctx.q_hints.get(seg.target, ctx.q_cmd) if isinstance(seg.target, str) else ctx.q_cmd
+            goal = planner.ik(target, seed, rng, collision_free=True, allowed=allowed, attached=attached)
+        return planner.free(q_start, goal, rng, allowed=allowed, attached=attached)
 
     def _guarded(self, seg: MotionSegment, ctx: Context, timings: Timings) -> GuardedMove:
         """Plan a guarded segment (its line from the live state); :mod:`mgdata.engine.guarded` runs it."""
@@ -329,8 +375,10 @@ class Executor:
         return Attachment(body, (tcp.inverse() @ obj).matrix(), riders=riders)
 
     # -- one control step ----------------------------------------------------------------------------------
-    def _step(self, q: np.ndarray, grip: float, state: _Run) -> None:
-        out = state.runner.step(q, grip, state.holding)
+    def _step(self, q: np.ndarray, grip: float, state: _Run, command: np.ndarray | None = None) -> None:
+        """One control step towards the plan's ``q`` (the recorded action); ``command``: the arm targets
+        executed instead (a perturbed demonstration)."""
+        out = state.runner.step(q, grip, state.holding, command)
         state.ctx.q_cmd = state.runner.q_cmd
         if out.end in ("unsafe", "penetration"):
             raise AttemptFailed(out.end, str(out.reason))
@@ -343,8 +391,9 @@ class Executor:
 @dataclass
 class _Run:
     """Mutable per-attempt state of the executor loop: the context, the runner and whether the motion has
-    ended (only holding steps count towards the gate)."""
+    ended (only holding steps count towards the gate) and the index of the segment being executed."""
 
     ctx: Context
     runner: EpisodeRunner
     holding: bool = False
+    index: int = 0

@@ -91,19 +91,26 @@ class EpisodeRunner:
         self.grip = 0.0
         return self.recorder.start()
 
-    def step(self, q: np.ndarray, grip: float, holding: bool) -> StepOutcome:
+    def step(self, q: np.ndarray, grip: float, holding: bool,
+             command: np.ndarray | None = None) -> StepOutcome:
         """Execute the action ``(q, grip)`` for one control period and record it. ``holding``: this is a
-        step after the motion has ended, the arm commanded still (only such steps count towards the gate)."""
+        step after the motion has ended, the arm commanded still (only such steps count towards the gate).
+        ``command``: arm targets executed instead of ``q`` (a perturbed demonstration: ``q``, the plan's
+        target, is recorded as the action, ``command`` as the executed one)."""
         action = np.empty(8, dtype=np.float32)
         action[:7] = q
         action[7] = grip
+        executed = action
+        if command is not None:
+            executed = action.copy()
+            executed[:7] = command
         t = self.timings
         with t.measure("physics"):
-            self.controller.apply(action)
+            self.controller.apply(executed)
             self.controller.step()
         encoding_before = t.encoding
         with t.measure("rendering"):
-            monitor = self.recorder.record(action)
+            monitor = self.recorder.record(action, executed)
         t.rendering -= t.encoding - encoding_before
         self.q_cmd = np.asarray(q, dtype=np.float64).copy()
         self.grip = float(grip)

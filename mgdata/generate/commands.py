@@ -107,6 +107,12 @@ def register(app: typer.Typer) -> None:
         condition: Annotated[str, typer.Option(
             help="Generate in a scenario condition: base, target, language, location, environment (or env), "
                  "or all (a task's draws cycle through the five).")] = "base",
+        recovery: Annotated[str | None, typer.Option(
+            help="Demonstrations that show recovery: 'dart' executes every planned segment with a smooth "
+                 "seeded offset on its joint targets (the recipe's [recovery] amplitude) and records the "
+                 "plan's targets as the actions; 'replan' pushes the arm off each planned segment once and "
+                 "plans the rest again from there; 'off' plain demos [default: the recipe's [recovery] "
+                 "mode, off].", show_default=False)] = None,
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
 
@@ -125,7 +131,8 @@ def register(app: typer.Typer) -> None:
                           workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
                           keep_failed=keep_failed, max_attempts=max_attempts, codec=codec, recipe=recipe,
                           render_after=render_after, per_task=per_task, shard=parse_shard(shard),
-                          ray=ray, condition="environment" if condition == "env" else condition)
+                          ray=ray, condition="environment" if condition == "env" else condition,
+                          recovery=recovery)
         console = plain_console()
         if family == ALL:
             views: list[ProgressView] = []

@@ -55,7 +55,7 @@ from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeleton.variation import attempt_seed
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.placer import LayoutRejected
-from mgdata.tasks.recipe import Recipe
+from mgdata.tasks.recipe import Recipe, with_recovery
 
 if TYPE_CHECKING:
     from mgdata.generate.raypool import RayAttemptPool
@@ -94,6 +94,8 @@ class GenerateJob:
             variant of each task as ``mgdata scenarios`` builds it (``target``, ``language``, ``location``,
             ``environment``), or ``all`` (draw ``d`` of a task in ``CONDITIONS[d mod 5]``). Each episode
             records its condition; a dataset is resumed and merged only with the same condition.
+        recovery: ``--recovery``: the recipe's ``[recovery] mode`` for this run (``None``: the recipe's;
+            :mod:`mgdata.tasks.recovery`); a dataset is resumed only with the same mode.
     """
 
     family: str
@@ -112,6 +114,7 @@ class GenerateJob:
     shard: tuple[int, int] | None = None
     ray: str | None = None
     condition: str = "base"
+    recovery: str | None = None
 
 
 def failed_path(out: Path) -> Path:
@@ -158,10 +161,12 @@ def shard_tasks(job: GenerateJob, tasks: tuple[int, ...]) -> tuple[int, ...]:
     return mine
 
 
-def run_digest(inputs: str, condition: str) -> str:
-    """The identity digest of a run: the inputs' digest, with ``/<condition>`` unless it is ``base``, so a
-    dataset is never resumed or merged with demos of another condition."""
-    return inputs if condition == "base" else f"{inputs}/{condition}"
+def run_digest(inputs: str, condition: str, recovery: str = "off") -> str:
+    """The identity digest of a run: the inputs' digest, with ``/<condition>`` unless it is ``base`` and
+    ``/recovery=<mode>`` unless recovery is off, so a dataset is never resumed or merged with demos of
+    another condition or another recovery mode."""
+    digest = inputs if condition == "base" else f"{inputs}/{condition}"
+    return digest if recovery == "off" else f"{digest}/recovery={recovery}"
 
 
 def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
@@ -179,7 +184,7 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
     if job.max_attempts is not None and job.max_attempts < 1:
         raise RecipeError(f"--max-attempts must be at least 1, got {job.max_attempts}")
     attempt_condition(job.condition, 0)  # a known condition
-    recipe = load_family_recipe(job.recipe or job.family)
+    recipe = with_recovery(load_family_recipe(job.recipe or job.family), job.recovery)
     if recipe.family != job.family:
         raise RecipeError(f"{recipe.path} is a {recipe.family!r} recipe, not {job.family!r}")
     tasks = _tasks(job, recipe)
@@ -219,7 +224,8 @@ def _open_dataset(root: Path, schema: DatasetSchema, job: GenerateJob, recipe: R
     ``kept_only``) or resume it (``identity`` must match)."""
     record = {"generator": {"family": identity.family, "seed": identity.seed,
                             "inputs_digest": identity.inputs_digest},
-              "physics_gate": physics_gate(recipe).to_info()}
+              "physics_gate": physics_gate(recipe).to_info(),
+              **({"recovery": recipe.recovery.to_info()} if recipe.recovery.perturbs else {})}
     writer = DatasetWriter.open_or_create(root, schema, codec=job.codec, spec=recipe.spec, mgdata=record,
                                           hold_steps=recipe.tasks.hold_steps, kept_only=kept_only)
     try:
@@ -258,7 +264,8 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         job = dataclasses.replace(job, n=job.per_task * len(tasks))
     schema = dataset_schema(recipe)
     out = Path(job.out)
-    identity = RunState(job.family, job.seed, run_digest(inputs_digest(recipe, grasps), job.condition))
+    identity = RunState(job.family, job.seed, run_digest(inputs_digest(recipe, grasps), job.condition,
+                                                         recipe.recovery.mode))
     try:
         _writable_dir(out, "--out")
         writer = _open_dataset(out, schema, job, recipe, identity, kept_only=True)
@@ -297,7 +304,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
         # per-run folder under staging/ (which the writer's open() clears after a crash)
         stage_dir = work_dir(out) / "staging" / f"generate-{os.getpid()}"
         config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, job.keep_failed, writer.video,
-                              job.render_after, job.condition)
+                              job.render_after, job.condition, job.recovery)
         if missing == 0:
             summary.stopped = "target already reached"
             return summary

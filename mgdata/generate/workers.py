@@ -47,6 +47,7 @@ from mgdata.scenarios.conditions import attempt_condition, variant
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.taskspec import TaskSpec
 from mgdata.skeleton.skeleton import load_family_recipe
+from mgdata.tasks.recipe import with_recovery
 
 EXECUTOR_CACHE = 2
 """Executors (one per task) kept alive per worker; rebuilding one costs a fraction of an attempt."""
@@ -64,6 +65,7 @@ class WorkerConfig:
     video: VideoSettings
     render_after: bool = True
     condition: str = "base"
+    recovery: str | None = None
 
 
 @dataclass(frozen=True)
@@ -81,7 +83,7 @@ class Worker:
         from mgdata.engine.executor import dataset_schema
 
         self.config = config
-        self.recipe = load_family_recipe(config.recipe_path)
+        self.recipe = with_recovery(load_family_recipe(config.recipe_path), config.recovery)
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
         self._tasks: dict[tuple[int, str], TaskSpec] = {}

@@ -25,6 +25,8 @@ class DatasetSchema:
     ``propositions`` and ``constraints`` give the column order of the safety features.
     ``physics_state_size`` is the width of the per-frame MuJoCo state (``mgdata.record.physics``; the same
     for every task of a dataset); 0 for a dataset without simulator state (synthetic data).
+    ``executed_action``: the dataset stores each frame's executed command beside its recorded action
+    (``sim.executed_action``: demonstrations with perturbed execution, :mod:`mgdata.tasks.recovery`).
     """
 
     fps: int
@@ -37,6 +39,7 @@ class DatasetSchema:
     state_names: tuple[str, ...] = STATE_NAMES
     action_names: tuple[str, ...] = ACTION_NAMES
     physics_state_size: int = 0
+    executed_action: bool = False
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,8 @@ class Frame:
         success: whether the family's success predicate holds at this step (not latched).
         physics_state: float64 (physics_state_size,): the MuJoCo state this step's observation was taken
             from (``mgdata.record.physics.STATE_SPEC`` layout), or ``None`` without a simulator.
+        executed_action: float32 (8,): the command the controller ran (``None``: ``action`` itself); it
+            differs from ``action`` only in a perturbed demonstration, whose ``action`` is the plan's target.
     """
 
     state: np.ndarray
@@ -65,6 +70,7 @@ class Frame:
     engaged: bool
     success: bool
     physics_state: np.ndarray | None = None
+    executed_action: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

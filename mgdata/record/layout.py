@@ -56,6 +56,7 @@ ENGAGED = "safety.engaged"
 SUCCESS = "safety.success"
 SAFETY_VECTORS: tuple[str, ...] = (LABELS, DFA_STATE, VIOLATED)  # per constraint/proposition, per frame
 PHYSICS_STATE = "sim.physics_state"
+EXECUTED_ACTION = "sim.executed_action"
 INDEX_COLUMNS: tuple[str, ...] = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 
 
@@ -150,6 +151,8 @@ def frame_columns(schema: DatasetSchema) -> tuple[Column, ...]:
     cols.append(Column(SUCCESS, "bool", 1))
     if schema.physics_state_size:
         cols.append(Column(PHYSICS_STATE, "float64", schema.physics_state_size))
+    if schema.executed_action:
+        cols.append(Column(EXECUTED_ACTION, "float32", len(schema.action_names), schema.action_names))
     return tuple(cols)
 
 

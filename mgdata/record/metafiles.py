@@ -155,6 +155,7 @@ def schema_from_info(info: Mapping[str, Any], where: str) -> DatasetSchema:
             action_names=names(layout.ACTION),
             physics_state_size=int(feats[layout.PHYSICS_STATE]["shape"][0]) if layout.PHYSICS_STATE in feats
             else 0,
+            executed_action=layout.EXECUTED_ACTION in feats,
         )
     except (KeyError, TypeError, IndexError) as err:
         raise DatasetError(f"{where}: malformed features ({err})") from err

@@ -61,6 +61,8 @@ class EpisodeData:
         engaged, success: bool (T,). timestamp: float32 (T,) seconds from the episode start.
         frame_index, global_index: int64 (T,).
         physics_state: float64 (T, n): the MuJoCo state of each frame (``None`` in a dataset without one).
+        executed_action: float32 (T, 8): the command the controller ran at each frame, where the dataset
+            stores one (perturbed demonstrations; ``None``: the executed command is ``action``).
     """
 
     index: int
@@ -77,6 +79,7 @@ class EpisodeData:
     frame_index: np.ndarray
     global_index: np.ndarray
     physics_state: np.ndarray | None = None
+    executed_action: np.ndarray | None = None
 
     @property
     def length(self) -> int:
@@ -189,6 +192,7 @@ class DatasetReader:
             success=cols[layout.SUCCESS][:, 0], timestamp=cols["timestamp"][:, 0],
             frame_index=cols["frame_index"][:, 0], global_index=cols["index"][:, 0],
             physics_state=cols.get(layout.PHYSICS_STATE),
+            executed_action=cols.get(layout.EXECUTED_ACTION),
         )
 
     def scenes(self) -> Scenes:

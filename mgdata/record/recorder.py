@@ -87,6 +87,7 @@ class Recorder:
         self.engagement = EngagementTracker(scene)
         self._pending: _Observation | None = None
         self._last_action: np.ndarray | None = None
+        self._last_executed: np.ndarray | None = None
         self._n_frames = 0
         self._n_observed = 0
         self.penetration: Penetration = NONE
@@ -100,7 +101,7 @@ class Recorder:
                               "call finish() or discard() first")
         self.monitor.reset()
         self.engagement.reset()
-        self._last_action = None
+        self._last_action = self._last_executed = None
         self._n_frames = 0
         self._n_observed = 0
         self.penetration = NONE
@@ -108,15 +109,19 @@ class Recorder:
         self._pending = self._observe()
         return self._pending.monitor
 
-    def record(self, action: np.ndarray) -> MonitorState:
-        """Emit frame ``t`` (observation before ``action`` + ``action``), then observe the new state."""
+    def record(self, action: np.ndarray, executed: np.ndarray | None = None) -> MonitorState:
+        """Emit frame ``t`` (observation before ``action`` + ``action``), then observe the new state.
+
+        ``executed``: the command the controller actually ran, where it differs from the recorded action
+        (a perturbed demonstration, :mod:`mgdata.engine.perturbation`); default ``action``."""
         if self._pending is None:
             raise MgdataError("Recorder.record() called before start()")
         a = np.asarray(action, dtype=np.float32)
-        if a.shape != (8,):
-            raise MgdataError(f"action must have shape (8,), got {a.shape}")
-        self._emit(self._pending, a)
-        self._last_action = a
+        e = a if executed is None else np.asarray(executed, dtype=np.float32)
+        if a.shape != (8,) or e.shape != (8,):
+            raise MgdataError(f"action must have shape (8,), got {a.shape} (executed {e.shape})")
+        self._emit(self._pending, a, e)
+        self._last_action, self._last_executed = a, e
         self._pending = self._observe()
         return self._pending.monitor
 
@@ -131,7 +136,8 @@ class Recorder:
         if self._pending is None:
             raise MgdataError("Recorder.finish() called before start()")
         final = self._pending
-        self._emit(final, self._last_action if self._last_action is not None else self._hold_action())
+        last = self._last_action if self._last_action is not None else self._hold_action()
+        self._emit(final, last, self._last_executed if self._last_executed is not None else last)
         task = self.scene.task
         first = self.first_violation
         meta = EpisodeMeta(
@@ -202,11 +208,11 @@ class Recorder:
         success = bool(self.success_fn(self.scene)) if self.success_fn is not None else False
         return _Observation(state, images, labels, self.monitor.step(labels), engaged, success, physics)
 
-    def _emit(self, obs: _Observation, action: np.ndarray) -> None:
+    def _emit(self, obs: _Observation, action: np.ndarray, executed: np.ndarray) -> None:
         self.sink.add_frame(Frame(state=obs.state, action=np.asarray(action, dtype=np.float32),
                                   images=obs.images, labels=obs.labels, dfa_state=obs.monitor.dfa_state,
                                   violated=obs.monitor.violated, engaged=obs.engaged, success=obs.success,
-                                  physics_state=obs.physics))
+                                  physics_state=obs.physics, executed_action=executed))
         self._n_frames += 1
 
     def _hold_action(self) -> np.ndarray:

@@ -215,7 +215,9 @@ def _render_episode(reader: DatasetReader, e: int, writer: DatasetWriter, rigs: 
             writer.add_frame(Frame(state=ep.state[t], action=ep.action[t], images=rig.render(data),
                                    labels=ep.labels[t], dfa_state=ep.dfa_state[t], violated=ep.violated[t],
                                    engaged=bool(ep.engaged[t]), success=bool(ep.success[t]),
-                                   physics_state=ep.physics_state[t]))
+                                   physics_state=ep.physics_state[t],
+                                   executed_action=None if ep.executed_action is None
+                                   else ep.executed_action[t]))
         writer.end_episode(ep.meta)
     except BaseException:
         writer.discard_episode()

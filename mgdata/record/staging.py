@@ -198,7 +198,9 @@ class EpisodeStager:
         raw = {layout.STATE: frame.state, layout.ACTION: frame.action, layout.LABELS: frame.labels,
                layout.DFA_STATE: frame.dfa_state, layout.VIOLATED: frame.violated,
                layout.ENGAGED: np.asarray([frame.engaged]), layout.SUCCESS: np.asarray([frame.success]),
-               layout.PHYSICS_STATE: frame.physics_state}
+               layout.PHYSICS_STATE: frame.physics_state,
+               layout.EXECUTED_ACTION: frame.action if frame.executed_action is None
+               else frame.executed_action}
         out = {}
         for col in self._columns:
             if raw[col.key] is None:

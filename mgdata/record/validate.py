@@ -18,12 +18,14 @@ import pyarrow as pa
 from mgdata.errors import DatasetError, MgdataError
 from mgdata.record import layout
 from mgdata.record.audit import SafetyAuditor
+from mgdata.record.command_audit import audit_commands
 from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
 from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
 from mgdata.record.reader import DatasetReader
 from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, merge_stats, numeric_stats
 from mgdata.record.video import check_decodes, decode, probe
+from mgdata.tasks.recovery import recovery_from_info
 
 _ERRORS = (MgdataError, OSError, ValueError, KeyError, TypeError, IndexError, pa.ArrowException)
 
@@ -72,6 +74,7 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
     _guard(report, lambda: _check_stats(reader, records, values, report))
     _guard(report, lambda: _check_scenes(reader, records, report))
     _guard(report, lambda: _check_physics(reader, records, report))
+    _guard(report, lambda: _check_commands(reader, records, report))
     _guard(report, lambda: _check_unreferenced(reader, records, report))
     _guard(report, lambda: _check_checksums(reader, report))
     return report
@@ -326,6 +329,30 @@ def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: V
     for scene in scenes.ids:
         if scene not in used:
             report.problems.append(f"{where}: scene {scene!r} is not used by any episode")
+
+
+def _check_commands(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
+    """A perturbed dataset's executed commands (:mod:`mgdata.record.command_audit`): what its states were
+    stepped with, within the recorded amplitude of the actions."""
+    if not reader.schema.executed_action or reader.physics_spec is None:
+        return
+    from mgdata.record.physics import model_from_bytes  # MuJoCo only for datasets that store its state
+
+    recovery = recovery_from_info(reader.info, str(reader.root / layout.INFO_PATH))
+    if recovery is None:
+        report.problems.append(f"{reader.root / layout.INFO_PATH}: the dataset stores "
+                               f"{layout.EXECUTED_ACTION} but no mgdata.recovery (mode, amplitude)")
+    scenes, models = reader.scenes(), {}
+    for rec in records:
+        if rec.scene is None:
+            continue
+        try:
+            if rec.scene not in models:
+                models[rec.scene] = model_from_bytes(scenes.mjb(rec.scene))
+            report.problems += audit_commands(reader.episode(rec.index), models[rec.scene],
+                                              recovery.amplitude if recovery else None)
+        except _ERRORS as err:
+            report.problems.append(f"episode {rec.index}: command audit: {err}")
 
 
 def _check_physics(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:

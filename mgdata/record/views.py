@@ -74,7 +74,7 @@ class ViewSpec:
         """The output key of a source feature key, ``None`` if the view drops it."""
         if source.startswith(layout.IMAGE_PREFIX):
             return self.cameras.get(layout.camera_name(source))
-        if source == layout.PHYSICS_STATE and not self.physics:
+        if source in (layout.PHYSICS_STATE, layout.EXECUTED_ACTION) and not self.physics:
             return None
         if source in layout.SAFETY_VECTORS and not self.safety:
             return None

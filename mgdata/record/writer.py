@@ -148,7 +148,7 @@ class DatasetWriter:
         info, mg = source.info, source.info["mgdata"]
         video = video or source.video
         extra = dict(mgdata or {})
-        for key in ("generator", "physics_gate"):
+        for key in ("generator", "physics_gate", "recovery"):
             if mg.get(key) is not None:
                 extra[key] = mg[key]
         return cls.create(

@@ -18,6 +18,7 @@ Top-level keys and tables::
     [variation]   knob = [low, high]      (drawn per attempt; draw 0 takes the midpoints)
     [params]      skeleton tunables (copied into every TaskSpec.params)
     [ood]         how the OOD variants are built (mgdata.tasks.ood; optional, docs/scenarios.md)
+    [recovery]    perturbed execution with corrective labels (mgdata.tasks.recovery; optional, off)
 
 ``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
 (:class:`mgdata.tasks.recipe_keys.RecipeKeys`); :func:`check_recipe_keys` checks them (names, types, ranges)
@@ -48,6 +49,7 @@ from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_map
 from mgdata.tasks.layout_rules import Layout, parse_layout
 from mgdata.tasks.ood import OodSettings, parse_ood
 from mgdata.tasks.recipe_keys import RecipeKeys, check_params, check_variation
+from mgdata.tasks.recovery import RecoverySettings, parse_recovery
 
 CAMERAS: tuple[str, ...] = ("front", "left", "right", "shoulder", "wrist")
 MAX_IMAGE_SIZE = 2048
@@ -89,6 +91,7 @@ class Recipe:
         params: skeleton tunables.
         digest: hash of the recipe and spec files (a dataset records it; resume requires the same).
         ood: how its OOD variants are built (``[ood]``, :mod:`mgdata.tasks.ood`; defaults if absent).
+        recovery: perturbed execution (``[recovery]``, :mod:`mgdata.tasks.recovery`; off if absent).
     """
 
     family: str
@@ -103,6 +106,7 @@ class Recipe:
     params: Mapping[str, Any]
     digest: str
     ood: OodSettings | None = None
+    recovery: RecoverySettings = field(default_factory=RecoverySettings)
 
 
 def recipe_path(family: str) -> Path:
@@ -137,6 +141,15 @@ def check_recipe_keys(recipe: Recipe, keys: RecipeKeys) -> Recipe:
     return dataclasses.replace(recipe, params=MappingProxyType(params), variation=MappingProxyType(variation))
 
 
+def with_recovery(recipe: Recipe, mode: str | None) -> Recipe:
+    """``recipe`` with its ``[recovery] mode`` replaced by ``mode`` (``generate --recovery``; ``None``:
+    unchanged), checked as the recipe's own key is."""
+    if mode is None:
+        return recipe
+    table = {**dataclasses.asdict(recipe.recovery), "mode": mode}
+    return dataclasses.replace(recipe, recovery=parse_recovery(table, "--recovery:"))
+
+
 def load_recipe(family_or_path: str | Path) -> Recipe:
     """Load and validate a recipe by family name (a ``str`` not ending in ``.toml``) or by path (a ``Path``,
     or a ``str`` ending in ``.toml``)."""
@@ -162,13 +175,15 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     variation = {k: _range(v, f"{src}: [variation] {k}") for k, v in _table(raw, "variation", src).items()}
     params = _table(raw, "params", src, required=False)
     ood = parse_ood(_table(raw, "ood", src, required=False), layout, f"{src}: [ood]")
-    top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params", "ood"}
+    recovery = parse_recovery(_table(raw, "recovery", src, required=False), f"{src}: [recovery]")
+    top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params", "ood",
+           "recovery"}
     unknown = set(raw) - top
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
     return Recipe(family, skeleton, path, spec, prompt, tasks, success, layout,
-                  MappingProxyType(variation), MappingProxyType(params), digest, ood)
+                  MappingProxyType(variation), MappingProxyType(params), digest, ood, recovery)
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
