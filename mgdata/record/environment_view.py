@@ -1,7 +1,7 @@
 """``observation.environment_state`` for an existing dataset, derived from its stored physics states.
 
 Every frame stores the MuJoCo state its observation was taken from (``sim.physics_state``) and every episode
-names its compiled scene (``meta/scenes.parquet``), so the environment state
+names its compiled scene (:mod:`mgdata.record.scenes`), so the environment state
 (:mod:`mgdata.sim.environment_state`) of each frame is recomputed exactly: the state is set
 (``mj_setState``), positions are recomputed (``mj_kinematics``) and the layout of the episode's scene is read.
 Used by ``mgdata export DATASET OUT --format state`` (a camera-free LeRobot v3.0 view for state-only

@@ -5,7 +5,7 @@ Columns follow LeRobot v3.0 (``episode_index``, ``tasks``, ``length``, ``data/*`
 the :class:`~mgdata.record.episode.EpisodeMeta` fields (``mgdata/<field>``), each camera's exact pixel
 histogram (``mgdata/histogram/<video key>``, 3×256 counts) from which dataset image stats are summed, and,
 in a dataset with physics states, the compiled scene the episode ran in (``mgdata/scene``, a scene id of
-``meta/scenes.parquet``, see :mod:`mgdata.record.scenes`).
+the scenes files ``meta/scenes/…``, see :mod:`mgdata.record.scenes`).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ class EpisodeRecord:
         index: episode index; ``from_index`` is its first global frame index (``index`` column).
         videos: video key → :class:`VideoSpan`; ``histograms``: video key → (3, 256) pixel counts.
         stats: feature key → its per-episode stats.
-        scene: the id of the compiled scene in ``meta/scenes.parquet`` (``None``: no physics states).
+        scene: the id of the compiled scene in the scenes files (``None``: no physics states).
     """
 
     index: int
@@ -173,5 +173,5 @@ def _record_from_row(row: dict[str, Any], schema: DatasetSchema, where: str) -> 
 
 def _scene_ref(value: Any) -> str:
     if not isinstance(value, str) or not value:
-        raise ValueError(f"{SCENE_COLUMN} is {value!r}, expected a scene id of {layout.SCENES_PATH}")
+        raise ValueError(f"{SCENE_COLUMN} is {value!r}, expected a scene id of {layout.SCENES_DIR}")
     return value

@@ -8,7 +8,8 @@ Layout (as LeRobot 0.3.x wrote it and as openpi and GR00T N1.5 read it)::
     meta/episodes_stats.jsonl      {"episode_index", "stats": {feature: {min, max, mean, std, count, q..}}}
     meta/stats.json                dataset stats (GR00T reads them)
     meta/mgdata_episodes.jsonl     mgdata's episode metadata (family, seed, verdict, t_violation …, scene)
-    meta/scenes.parquet            the compiled scenes (``v2.1`` export of a dataset with physics states)
+    meta/scenes/chunk-*/file-*.parquet   the compiled scenes, copied as they are (``meta/scenes.parquet`` from
+                                   a dataset written before chunked scenes; only with physics states)
     meta/modality.json             GR00T only
     data/chunk-000/episode_000000.parquet
     videos/chunk-000/<video key>/episode_000000.mp4

@@ -33,14 +33,24 @@ VIDEO_FILE_SECONDS = 60.0
 # every commit's cost bounded whatever the dataset's size (benchmarks/bench_append.py: the commit at episode
 # 1,000 costs what the one at episode 1 does).
 EPISODES_PER_FILE = 20
+# The compiled scenes are chunked too, for the same reason: appending a scene rewrites the current scenes
+# file, whose rows the writer holds zstd-packed and must unpack and compress again (~6 ms per jar scene held:
+# ~3 ms parquet's zstd of the 5.8 MB MJB delta, ~3 ms unpacking it; a whole scene ~35 ms). At 20 scenes per
+# file (~0.9 MB of deltas) the rewrite stays under ~0.15 s, a fifth of an episode's commit, whatever the
+# scene count (benchmarks/bench_append.py --scenes).
+SCENES_PER_FILE = 20
 
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
-SCENES_PATH = "meta/scenes.parquet"
+# Datasets written before chunked scenes hold every scene in this one file (still read; a resumed one keeps
+# it as it is and adds new scenes in SCENES_DIR's files).
+LEGACY_SCENES_PATH = "meta/scenes.parquet"
 EPISODES_DIR = "meta/episodes"
+SCENES_DIR = "meta/scenes"
 CHUNK_FILE = "chunk-{chunk_index:03d}/file-{file_index:03d}"
 EPISODES_PATH = EPISODES_DIR + "/" + CHUNK_FILE + ".parquet"
+SCENES_PATH = SCENES_DIR + "/" + CHUNK_FILE + ".parquet"
 DATA_PATH = "data/" + CHUNK_FILE + ".parquet"
 VIDEO_PATH = "videos/{video_key}/" + CHUNK_FILE + ".mp4"
 # mgdata's private work area inside a dataset (staged episodes, pending commits); empty after close().
@@ -93,6 +103,10 @@ def video_path(key: str, ref: FileRef) -> str:
 
 def episodes_path(ref: FileRef) -> str:
     return EPISODES_PATH.format(chunk_index=ref.chunk, file_index=ref.file)
+
+
+def scenes_path(ref: FileRef) -> str:
+    return SCENES_PATH.format(chunk_index=ref.chunk, file_index=ref.file)
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,8 @@ def spec_from_dict(data: Mapping[str, Any], where: str) -> SafetySpec:
 def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | None, *, chunks_size: int,
                data_file_mb: int, video_file_mb: int, video_file_seconds: float,
                hold_steps: int | None = None, kept_only: bool = False,
-               episodes_per_file: int | None = None) -> dict[str, Any]:
+               episodes_per_file: int | None = None,
+               scenes_per_file: int = layout.SCENES_PER_FILE) -> dict[str, Any]:
     """A new dataset's ``info.json`` (no episodes yet).
 
     ``hold_steps`` (the gate's success window) and ``kept_only`` (the dataset promises only kept episodes)
@@ -78,6 +79,7 @@ def build_info(schema: DatasetSchema, video: VideoSettings, spec: SafetySpec | N
         "mgdata": {"format": MGDATA_FORMAT, "spec": spec_to_dict(spec) if spec else None,
                    "hold_steps": hold_steps, "kept_only": kept_only,
                    "video_file_seconds": video_file_seconds, "episodes_per_file": episodes_per_file,
+                   "scenes_per_file": scenes_per_file,
                    "attempts": None, "sha256": {}},
     }
 
@@ -126,7 +128,7 @@ def read_info(path: Path) -> dict[str, Any]:
     typed = {"fps": int, "total_episodes": int, "total_frames": int, "total_tasks": int, "chunks_size": int,
              "features": dict, "splits": dict, "data_path": str, "mgdata.sha256": dict,
              "mgdata.attempts": (int, type(None)), "mgdata.video_file_seconds": (int, float),
-             "mgdata.episodes_per_file": (int, type(None))}
+             "mgdata.episodes_per_file": (int, type(None)), "mgdata.scenes_per_file": (int, type(None))}
     for key, kind in typed.items():
         block, _, name = key.rpartition(".")
         table = mg if block else info
@@ -134,6 +136,8 @@ def read_info(path: Path) -> dict[str, Any]:
             raise DatasetError(f"{path}: {key} = {table[name]!r} has the wrong type (corrupt info.json)")
     if info["chunks_size"] < 1 or info["fps"] < 1 or min(info["total_episodes"], info["total_frames"]) < 0:
         raise DatasetError(f"{path}: chunks_size, fps, total_episodes or total_frames out of range")
+    if mg.get("scenes_per_file") is not None and mg["scenes_per_file"] < 1:
+        raise DatasetError(f"{path}: mgdata.scenes_per_file = {mg['scenes_per_file']}, expected >= 1")
     return info
 
 

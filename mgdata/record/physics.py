@@ -1,6 +1,6 @@
 """What makes a dataset self-contained: the compiled MuJoCo scene and the physics state of every frame.
 
-Per base task the dataset stores the compiled model as MJB bytes (``meta/scenes.parquet``,
+Per base task the dataset stores the compiled model as MJB bytes (``meta/scenes/chunk-*/file-*.parquet``,
 :mod:`mgdata.record.scenes`; MuJoCo's own binary format, exact and byte-deterministic across processes for
 the same model and MuJoCo version); per frame it
 stores the MuJoCo state (``sim.physics_state``, float64) from which that frame's observation was taken, in
@@ -34,8 +34,8 @@ def feature_info() -> dict[str, object]:
         "layout": "mujoco.mj_getState(model, data, state, mujoco_state_spec): the mjtState components in "
                   "MuJoCo's order (time, qpos, qvel, act, qacc_warmstart, ctrl, eq_active, mocap_pos, "
                   "mocap_quat, userdata, plugin state, history)",
-        "scene": "the compiled model (MJB): meta/scenes.parquet row named by the episodes-table column "
-                 "mgdata/scene",
+        "scene": "the compiled model (MJB): the meta/scenes/chunk-*/file-*.parquet row (meta/scenes.parquet "
+                 "in datasets written before chunked scenes) named by the episodes-table column mgdata/scene",
     }
 
 

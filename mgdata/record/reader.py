@@ -196,10 +196,11 @@ class DatasetReader:
         )
 
     def scenes(self) -> Scenes:
-        """The compiled scenes (``meta/scenes.parquet``; empty in a dataset without physics states), read
-        once and kept: render, merge and the environment view ask for it at every episode."""
+        """The compiled scenes (``meta/scenes/…``, :mod:`mgdata.record.scenes`; empty in a dataset without
+        physics states): their index read once and kept (render, merge and the environment view ask for it
+        at every episode); each scene's data is read when asked for."""
         if self._scenes is None:
-            self._scenes = Scenes.read(self.files.path(layout.SCENES_PATH))
+            self._scenes = Scenes.read(self.files)
         return self._scenes
 
     def scene_mjb(self, i: int) -> bytes:

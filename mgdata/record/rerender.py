@@ -2,7 +2,7 @@
 physics states, without re-planning or re-simulating.
 
 Every frame of the source stores the MuJoCo state it was observed in (``sim.physics_state``) and every
-episode names its compiled scene (``meta/scenes.parquet``), so each frame is restored
+episode names its compiled scene (:mod:`mgdata.record.scenes`), so each frame is restored
 (:func:`~mgdata.record.physics.set_physics_state`) and drawn with the camera rig of ``mgdata.sim``. Everything
 else is copied: state, action, the safety columns, the physics states, the scenes, the episode metadata and
 the gate's promises (``hold_steps``, ``kept_only``), the generator identity and the attempt count. Only the

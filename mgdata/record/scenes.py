@@ -1,10 +1,21 @@
-"""The compiled scenes of a dataset (``meta/scenes.parquet``): one row per base task, delta-coded.
+"""The compiled scenes of a dataset (``meta/scenes/chunk-*/file-*.parquet``): one row per base task,
+delta-coded, at most ``mgdata.scenes_per_file`` scenes per file.
 
-A jar task's compiled model (MJB, ``mgdata.record.physics.model_bytes``) is 4.2 MB, mostly the robot's and
+A jar task's compiled model (MJB, ``mgdata.record.physics.model_bytes``) is 5.8 MB, mostly the robot's and
 the objects' meshes, which every task of a family shares: two jar tasks' MJBs have the same size and differ
-in ~2.5 % of their bytes. So the first scene of each MJB size is stored whole and every later one as its
-byte-wise XOR with that one (mostly zeros); parquet's zstd compresses the first to ~1.75 MB and each later
+in a few % of their bytes. So the first scene of each MJB size is stored whole and every later one as its
+byte-wise XOR with that one (mostly zeros); parquet's zstd compresses the first to ~2.5 MB and each later
 one to ~45 KB. Decoding needs only ``pyarrow`` and ``numpy``.
+
+Files are chunked like the data files (``layout.SCENES_PATH``: ``file-000``, ``file-001``, …, a new
+``chunk-NNN`` every ``chunks_size`` files), each holding at most ``scenes_per_file`` scenes
+(``info.json``; ``layout.SCENES_PER_FILE`` by default), one row group per scene (statistics on ``scene``
+only), so one scene is read without decoding the others. A new scene goes into the last file (rewritten in
+its episode's commit) or starts the next one; earlier files never change, and a delta's base may live in
+an earlier file. Storage order: files in order, rows in order. Datasets written before chunking hold every
+scene in one file, ``meta/scenes.parquet`` (``layout.LEGACY_SCENES_PATH``), which is read first and never
+rewritten: a resumed older dataset adds its new scenes in chunked files beside it (their deltas coded
+against a whole scene of the old file, if one has their size).
 
 Columns: ``scene`` (id ``task_<task id:06d>_<sha256[:16]>``, referenced by the episodes-table column
 ``mgdata/scene``), ``task_id``, ``sha256`` and ``size`` of the MJB, ``base`` (``null``: ``data`` is the MJB;
@@ -12,7 +23,7 @@ else the id of the scene ``data`` is XOR-coded against), ``data``.
 
 Example::
 
-    scenes = Scenes.read(root / "meta/scenes.parquet")
+    scenes = Scenes.read(root)                     # every scenes file's rows, data not read yet
     mjb = scenes.mjb("task_000012_9f3a1c0d2b4e7a65")
     model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb})
 """
@@ -20,58 +31,149 @@ Example::
 from __future__ import annotations
 
 import hashlib
+import re
+from collections.abc import Collection, Iterable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from mgdata.errors import DatasetError
+from mgdata.record import layout
+from mgdata.record.commit import FileView
 
 SCHEMA = pa.schema([pa.field("scene", pa.string()), pa.field("task_id", pa.int64()),
                     pa.field("sha256", pa.string()), pa.field("size", pa.int64()),
                     pa.field("base", pa.string()), pa.field("data", pa.large_binary())])
+_META = [name for name in SCHEMA.names if name != "data"]
+_CHUNKED = re.compile(r"chunk-(\d+)/file-(\d+)\.parquet$")
 
 
 def scene_id(task_id: int, sha256: str) -> str:
     return f"task_{task_id:06d}_{sha256[:16]}"
 
 
+def scene_files(files: FileView) -> list[str]:
+    """The scenes files of a dataset (paths relative to its root) in storage order: the legacy single file
+    if there is one, then the chunked files."""
+    legacy = [layout.LEGACY_SCENES_PATH] if files.exists(layout.LEGACY_SCENES_PATH) else []
+    return legacy + sorted(files.glob(layout.SCENES_DIR + "/chunk-*/file-*.parquet"), key=_order)
+
+
+def scenes_file_ref(rel: str) -> layout.FileRef | None:
+    """The (chunk, file) of a chunked scenes file's path (``None``: the legacy file or another name)."""
+    match = _CHUNKED.search(rel)
+    return layout.FileRef(int(match.group(1)), int(match.group(2))) if match else None
+
+
+def _order(rel: str) -> tuple[int, int, str]:
+    ref = scenes_file_ref(rel)
+    return (ref.chunk, ref.file, rel) if ref else (-1, -1, rel)
+
+
+def write_scenes(rows: Iterable[Mapping[str, Any]], path: Path) -> None:
+    """Write scenes rows (``data``: the stored bytes) to ``path``, one row group per scene, taking one row
+    at a time from ``rows`` (a writer unpacks them one by one)."""
+    with pq.ParquetWriter(path, SCHEMA, compression="zstd", use_dictionary=False,
+                          write_statistics=["scene"]) as out:
+        for row in rows:
+            columns = {f.name: pa.array([row[f.name]], f.type) for f in SCHEMA}
+            out.write_table(pa.table(columns, schema=SCHEMA))
+
+
+@dataclass(frozen=True)
+class SceneRow:
+    """One stored scene, without its data.
+
+    Attributes:
+        scene: its id; task_id; sha256, size: of its MJB.
+        base: ``None`` (stored whole) or the id of the whole scene it is XOR-coded against.
+        file: the scenes file holding it (relative to the dataset root); group: its row group there (in
+            the legacy file, its row).
+    """
+
+    scene: str
+    task_id: int
+    sha256: str
+    size: int
+    base: str | None
+    file: str
+    group: int
+
+
+class _Packed(NamedTuple):
+    """Bytes held zstd-compressed in memory (and their length, to decompress them)."""
+
+    data: bytes
+    size: int
+
+    @classmethod
+    def of(cls, raw: bytes) -> _Packed:
+        return cls(_CODEC.compress(raw, asbytes=True), len(raw))
+
+    def raw(self) -> bytes:
+        return _CODEC.decompress(self.data, decompressed_size=self.size, asbytes=True)
+
+
 _CODEC = pa.Codec("zstd", compression_level=1)
-"""How a scene's ``data`` is held in memory between commits (the table is rewritten whole at each new scene,
-so a writer holds every scene of its dataset: raw, 26 clutter_liquid scenes took 183 MB; packed, ~41 MB)."""
+"""How scene bytes are held in memory: a whole jar scene packs to ~2.5 MB, a delta to ~45 KB."""
 
 
 class Scenes:
-    """The scenes table in memory (rows in storage order, ``data`` zstd-packed); immutable:
-    :meth:`with_scene` returns a new one."""
+    """A dataset's stored scenes, as read: every row's metadata in storage order; :meth:`mjb` reads one
+    scene's row group (and its base's) and decodes it. Read-only (a writer appends with
+    :class:`SceneAppender`).
 
-    def __init__(self, rows: list[dict], where: str = "meta/scenes.parquet") -> None:
-        self._rows = [_pack(r) for r in rows]
-        self.where = where
-        self._by_id = {r["scene"]: r for r in self._rows}
+    Attributes:
+        files: the scenes files read (relative paths, storage order).
+    """
+
+    def __init__(self, view: FileView, rows: list[SceneRow], legacy: Mapping[str, _Packed]) -> None:
+        self._view = view
+        self._rows = rows
+        self._by_id = {r.scene: r for r in rows}
+        self._legacy = legacy  # the legacy file's data (one row group: read whole, held packed)
+        self._whole: tuple[str, bytes] | None = None  # the last whole scene decoded (deltas share it)
+        self.files = list(dict.fromkeys(r.file for r in rows))
 
     @classmethod
-    def _packed(cls, rows: list[dict], where: str) -> Scenes:
-        scenes = cls([], where)
-        scenes._rows = rows
-        scenes._by_id = {r["scene"]: r for r in rows}
-        return scenes
-
-    @classmethod
-    def read(cls, path: Path) -> Scenes:
-        """The table at ``path`` (empty if the file does not exist)."""
-        if not path.exists():
-            return cls([], str(path))
-        try:
-            table = pq.read_table(path)
-        except (OSError, pa.ArrowException) as err:
-            raise DatasetError(f"{path}: unreadable parquet ({err})") from err
-        if table.schema.names != SCHEMA.names:
-            raise DatasetError(f"{path}: columns {table.schema.names}, expected {SCHEMA.names}")
-        meta = table.drop_columns(["data"]).to_pylist()
-        data = table.column("data")
-        return cls._packed([_pack({**m, "data": data[i].as_buffer()}) for i, m in enumerate(meta)], str(path))
+    def read(cls, root: Path | FileView, skip: Collection[str] = ()) -> Scenes:
+        """The scenes of the dataset at ``root`` (empty if it has none), leaving out the files in ``skip``
+        (damaged ones). A file with other columns, or a chunked one with several scenes in a row group, or a
+        scene stored twice: :class:`DatasetError`."""
+        view = root if isinstance(root, FileView) else FileView(Path(root))
+        rows: list[SceneRow] = []
+        legacy: dict[str, _Packed] = {}
+        seen: dict[str, str] = {}
+        for rel in scene_files(view):
+            if rel in skip:
+                continue
+            path = view.path(rel)
+            try:
+                with pq.ParquetFile(path) as pf:
+                    names = pf.schema_arrow.names
+                    if names != SCHEMA.names:
+                        raise DatasetError(f"{path}: columns {names}, expected {SCHEMA.names}")
+                    meta = pf.read(columns=_META).to_pylist()
+                    if rel == layout.LEGACY_SCENES_PATH:
+                        data = pf.read(columns=["data"]).column("data")
+                        legacy.update({m["scene"]: _Packed.of(data[i].as_buffer())
+                                       for i, m in enumerate(meta)})
+                    elif pf.num_row_groups != len(meta):
+                        raise DatasetError(f"{path}: {len(meta)} scenes in {pf.num_row_groups} row groups, "
+                                           "expected one row group per scene")
+            except (OSError, pa.ArrowException) as err:
+                raise DatasetError(f"{path}: unreadable parquet ({err})") from err
+            for i, m in enumerate(meta):
+                if m["scene"] in seen:
+                    raise DatasetError(f"{path}: scene {m['scene']!r} is stored already in "
+                                       f"{view.root / seen[m['scene']]}")
+                seen[m["scene"]] = rel
+                rows.append(SceneRow(**m, file=rel, group=i))
+        return cls(view, rows, legacy)
 
     def __contains__(self, scene: str) -> bool:
         return scene in self._by_id
@@ -80,53 +182,130 @@ class Scenes:
     def ids(self) -> list[str]:
         return list(self._by_id)
 
-    def mjb(self, scene: str) -> bytes:
-        """The MJB bytes of ``scene``, decoded and checked against its SHA-256."""
+    @property
+    def rows(self) -> list[SceneRow]:
+        return list(self._rows)
+
+    def row(self, scene: str) -> SceneRow:
         row = self._by_id.get(scene)
         if row is None:
-            raise DatasetError(f"{self.where}: no scene {scene!r}")
-        data = np.frombuffer(_unpack(row), np.uint8)
-        if row["base"] is not None:
-            if row["base"] not in self._by_id or self._by_id[row["base"]]["base"] is not None:
-                raise DatasetError(f"{self.where}: scene {scene!r} is coded against {row['base']!r}, which "
-                                   "is not a whole scene of this table")
-            base = np.frombuffer(self.mjb(row["base"]), np.uint8)
+            raise DatasetError(f"{self._view.root / layout.SCENES_DIR}: no scene {scene!r}")
+        return row
+
+    def stored(self, scene: str) -> bytes:
+        """The ``data`` of ``scene`` as stored (its MJB, or its XOR delta against its base)."""
+        row = self.row(scene)
+        if row.file == layout.LEGACY_SCENES_PATH:
+            return self._legacy[scene].raw()
+        path = self._view.path(row.file)
+        try:
+            with pq.ParquetFile(path) as pf:
+                got = pf.read_row_group(row.group, columns=["scene", "data"])
+        except (OSError, pa.ArrowException) as err:
+            raise DatasetError(f"{path}: unreadable parquet ({err})") from err
+        if got.num_rows != 1 or got.column("scene")[0].as_py() != scene:
+            raise DatasetError(f"{path}: row group {row.group} does not hold scene {scene!r} (the file "
+                               "changed after it was read)")
+        return got.column("data")[0].as_py()
+
+    def mjb(self, scene: str) -> bytes:
+        """The MJB bytes of ``scene``, decoded and checked against its SHA-256."""
+        row = self.row(scene)
+        where = self._view.path(row.file)
+        data = np.frombuffer(self.stored(scene), np.uint8)
+        if row.base is not None:
+            if row.base not in self._by_id or self._by_id[row.base].base is not None:
+                raise DatasetError(f"{where}: scene {scene!r} is coded against {row.base!r}, which is not a "
+                                   "whole scene of this dataset")
+            if self._whole is None or self._whole[0] != row.base:
+                self._whole = (row.base, self.mjb(row.base))
+            base = np.frombuffer(self._whole[1], np.uint8)
             if base.size != data.size:
-                raise DatasetError(f"{self.where}: scene {scene!r} has {data.size} bytes, its base "
-                                   f"{row['base']!r} {base.size}")
+                raise DatasetError(f"{where}: scene {scene!r} has {data.size} bytes, its base {row.base!r} "
+                                   f"{base.size}")
             data = data ^ base
         mjb = data.tobytes()
-        if len(mjb) != row["size"] or hashlib.sha256(mjb).hexdigest() != row["sha256"]:
-            raise DatasetError(f"{self.where}: scene {scene!r} does not decode to its recorded size and "
-                               "SHA-256")
+        if len(mjb) != row.size or hashlib.sha256(mjb).hexdigest() != row.sha256:
+            raise DatasetError(f"{where}: scene {scene!r} does not decode to its recorded size and SHA-256")
         return mjb
 
-    def with_scene(self, task_id: int, mjb: bytes) -> tuple[str, Scenes]:
-        """The id of ``mjb`` and a table holding it (``self`` if it is stored already)."""
+
+@dataclass(frozen=True)
+class SceneAppender:
+    """What a writer holds to append scenes: the stored ids, the whole scene of each MJB size (packed) and
+    the rows of the last chunked file (packed), never the other scenes; immutable (:meth:`with_scene`
+    returns a new one, which the writer keeps once its commit is done).
+
+    Attributes:
+        per_file: scenes per file; chunks_size: files per chunk.
+        ids: every stored scene; bases: MJB size → (id, packed MJB) of the whole scene deltas are coded
+            against; current: the last chunked file (``None`` before the first); rows: its rows.
+
+    Example::
+
+        appender = SceneAppender.load(Scenes.read(root), per_file=20, chunks_size=1000)
+        sid, appender = appender.with_scene(task_id, mjb)
+        appender.write(tx.path(appender.path))     # if it is a new scene
+    """
+
+    per_file: int
+    chunks_size: int
+    ids: frozenset[str] = frozenset()
+    bases: Mapping[int, tuple[str, _Packed]] = field(default_factory=dict)
+    current: layout.FileRef | None = None
+    rows: tuple[dict, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.per_file < 1:
+            raise DatasetError(f"scenes_per_file must be >= 1, got {self.per_file}")
+
+    @classmethod
+    def load(cls, scenes: Scenes, per_file: int, chunks_size: int) -> SceneAppender:
+        """Ready to append to the dataset ``scenes`` was read from."""
+        bases: dict[int, tuple[str, _Packed]] = {}
+        for row in scenes.rows:
+            if row.base is None and row.size not in bases:
+                bases[row.size] = (row.scene, _Packed.of(scenes.mjb(row.scene)))
+        chunked = [f for f in scenes.files if scenes_file_ref(f) is not None]
+        if not chunked:
+            return cls(per_file, chunks_size, frozenset(scenes.ids), bases)
+        whole = {sid: packed for sid, packed in bases.values()}
+        rows = tuple({**{k: getattr(r, k) for k in _META},
+                      "data": whole.get(r.scene) or _Packed.of(scenes.stored(r.scene))}
+                     for r in scenes.rows if r.file == chunked[-1])
+        return cls(per_file, chunks_size, frozenset(scenes.ids), bases, scenes_file_ref(chunked[-1]), rows)
+
+    def with_scene(self, task_id: int, mjb: bytes) -> tuple[str, SceneAppender]:
+        """The id of ``mjb`` and an appender holding it (``self`` if it is stored already)."""
         digest = hashlib.sha256(mjb).hexdigest()
         sid = scene_id(task_id, digest)
-        if sid in self:
+        if sid in self.ids:
             return sid, self
-        base = next((r["scene"] for r in self._rows if r["base"] is None and r["size"] == len(mjb)), None)
-        data = mjb if base is None else \
-            (np.frombuffer(mjb, np.uint8) ^ np.frombuffer(self.mjb(base), np.uint8)).tobytes()
-        row = {"scene": sid, "task_id": task_id, "sha256": digest, "size": len(mjb), "base": base,
-               "data": data}
-        return sid, Scenes._packed([*self._rows, _pack(row)], self.where)
+        base = self.bases.get(len(mjb))
+        if base is None:
+            packed = _Packed.of(mjb)
+            bases = {**self.bases, len(mjb): (sid, packed)}
+        else:
+            delta = np.frombuffer(mjb, np.uint8) ^ np.frombuffer(base[1].raw(), np.uint8)
+            packed = _Packed.of(delta.tobytes())
+            bases = dict(self.bases)
+        row = {"scene": sid, "task_id": task_id, "sha256": digest, "size": len(mjb),
+               "base": None if base is None else base[0], "data": packed}
+        if self.current is None:
+            current, rows = layout.FileRef(), (row,)
+        elif len(self.rows) >= self.per_file:
+            current, rows = self.current.next(self.chunks_size), (row,)
+        else:
+            current, rows = self.current, (*self.rows, row)
+        return sid, replace(self, ids=self.ids | {sid}, bases=bases, current=current, rows=rows)
+
+    @property
+    def path(self) -> str:
+        """The last chunked file (relative to the dataset root): what :meth:`write` writes."""
+        if self.current is None:
+            raise DatasetError("internal: no scenes file yet (append a scene first)")
+        return layout.scenes_path(self.current)
 
     def write(self, path: Path) -> None:
-        columns = {f.name: pa.array([r[f.name] for r in self._rows], f.type) for f in SCHEMA
-                   if f.name != "data"}
-        columns["data"] = pa.array((_unpack(r) for r in self._rows), SCHEMA.field("data").type,
-                                   size=len(self._rows))
-        pq.write_table(pa.table(columns, schema=SCHEMA), path, compression="zstd", use_dictionary=False)
-
-
-def _pack(row: dict) -> dict:
-    """``row`` with its ``data`` compressed (and its length kept, to decompress it)."""
-    data = row["data"]
-    return {**row, "data": _CODEC.compress(data, asbytes=True), "data_size": len(data)}
-
-
-def _unpack(row: dict) -> bytes:
-    return _CODEC.decompress(row["data"], decompressed_size=row["data_size"], asbytes=True)
+        """Write the last file's rows to ``path`` (unpacked one at a time)."""
+        write_scenes(({**r, "data": r["data"].raw()} for r in self.rows), path)

@@ -23,6 +23,7 @@ from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
 from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
 from mgdata.record.reader import DatasetReader
+from mgdata.record.scenes import Scenes, scene_files, scenes_file_ref
 from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, merge_stats, numeric_stats
 from mgdata.record.video import check_decodes, decode, probe
 from mgdata.tasks.recovery import recovery_from_info
@@ -303,15 +304,15 @@ def _close(a: FeatureStats, b: FeatureStats, keys: tuple[str, ...] = STAT_KEYS) 
 
 def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
     """Every episode's compiled scene decodes, loads in MuJoCo and has the stored physics-state width; every
-    stored scene is used."""
-    where = reader.root / layout.SCENES_PATH
+    stored scene is used; the scenes files are in order (:func:`_check_scene_files`)."""
     if reader.physics_spec is None:
-        if reader.files.path(layout.SCENES_PATH).exists():
-            report.problems.append(f"{where}: scenes in a dataset without {layout.PHYSICS_STATE}")
+        for rel in scene_files(reader.files):
+            report.problems.append(f"{reader.root / rel}: scenes in a dataset without {layout.PHYSICS_STATE}")
         return
     import mujoco
 
     scenes = reader.scenes()
+    _check_scene_files(reader, scenes, report)
     width = reader.schema.physics_state_size
     used = sorted({r.scene for r in records if r.scene is not None})
     for scene in used:
@@ -328,7 +329,29 @@ def _check_scenes(reader: DatasetReader, records: list[EpisodeRecord], report: V
                                    f"values, {layout.PHYSICS_STATE} has {width}")
     for scene in scenes.ids:
         if scene not in used:
-            report.problems.append(f"{where}: scene {scene!r} is not used by any episode")
+            report.problems.append(f"{reader.root / scenes.row(scene).file}: scene {scene!r} is not used by "
+                                   "any episode")
+
+
+def _check_scene_files(reader: DatasetReader, scenes: Scenes, report: ValidationReport) -> None:
+    """The chunked scenes files are numbered in order from ``chunk-000/file-000`` (as data files roll over)
+    and hold at most ``mgdata.scenes_per_file`` scenes each (the legacy single file: any number)."""
+    per_file = reader.info["mgdata"].get("scenes_per_file") or layout.SCENES_PER_FILE
+    held = {rel: 0 for rel in scene_files(reader.files)}
+    for row in scenes.rows:
+        held[row.file] += 1
+    expected = layout.FileRef()
+    for rel, n in held.items():
+        ref = scenes_file_ref(rel)
+        if ref is None:
+            continue
+        if ref != expected:
+            report.problems.append(f"{reader.root / rel}: out of order, the next scenes file would be "
+                                   f"{layout.scenes_path(expected)}")
+        expected = ref.next(int(reader.info["chunks_size"]))
+        if not 1 <= n <= per_file:
+            report.problems.append(f"{reader.root / rel}: {n} scenes, expected 1 to {per_file} "
+                                   "(mgdata.scenes_per_file)")
 
 
 def _check_commands(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
@@ -406,7 +429,7 @@ def _check_checksums(reader: DatasetReader, report: ValidationReport) -> None:
             report.problems.append(f"{reader.root / rel}: content differs from the SHA-256 recorded in "
                                    f"{layout.INFO_PATH} (corrupted after it was written)")
     if reader.num_episodes:
-        scenes = [layout.SCENES_PATH] if reader.physics_spec is not None else []
+        scenes = scene_files(reader.files) if reader.physics_spec is not None else []
         for rel in [layout.STATS_PATH, layout.TASKS_PATH, *scenes]:
             if rel not in recorded:
                 report.problems.append(f"{reader.root / rel}: no checksum recorded in {layout.INFO_PATH}")

@@ -19,7 +19,7 @@ Episode metadata (verdicts, violation times) travels with every view and the per
 every view but ``state``: LeRobot's ``__getitem__`` converts every column of the action chunk it reads, and
 the three safety vectors, which no policy reads, made a state-only sample 1.7x dearer (5.8 → 3.4 CPU-ms,
 jar; docs/train.md). The source dataset keeps them. The simulator state (``sim.physics_state``
-and the compiled scenes, ``meta/scenes.parquet``) travels with ``v2.1`` only: the training views drop it,
+and the compiled scenes, ``meta/scenes/…``) travels with ``v2.1`` only: the training views drop it,
 since their loaders take every non-video feature as a model input or expect a fixed key set, and a policy
 must not see simulator state.
 """
@@ -42,6 +42,7 @@ from mgdata.record.episode import DatasetSchema
 from mgdata.record.episodes import HISTOGRAM_PREFIX, SCENE_COLUMN
 from mgdata.record.metafiles import dump_json
 from mgdata.record.reader import DatasetReader, read_parquet
+from mgdata.record.scenes import scene_files
 from mgdata.sim.environment_state import FEATURE
 
 FORMATS = ("v2.1", "pi0", "smolvla", "groot", "state")
@@ -158,12 +159,14 @@ def rename_table(table: pa.Table, view: ViewSpec, episodes: bool = False) -> pa.
 
 def copy_scenes(reader: DatasetReader, out: Path, view: ViewSpec,
                 target: Callable[[str], Path] | None = None) -> None:
-    """Copy ``meta/scenes.parquet`` if the view keeps the physics state and the dataset has one."""
-    src = reader.files.path(layout.SCENES_PATH)
-    if view.physics and src.exists():
-        dst = target(layout.SCENES_PATH) if target else out / layout.SCENES_PATH
+    """Copy the scenes files as they are (either layout, :func:`~mgdata.record.scenes.scene_files`) if the
+    view keeps the physics state."""
+    if not view.physics:
+        return
+    for rel in scene_files(reader.files):
+        dst = target(rel) if target else out / rel
         dst.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(src, dst)
+        shutil.copyfile(reader.files.path(rel), dst)
 
 
 def _insert_after(features: dict, after: str, key: str, value: dict) -> dict:

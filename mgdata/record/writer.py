@@ -4,11 +4,13 @@ Episodes are appended whole: each is staged (encoded while its frames arrive, se
 :mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
 camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
 rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
-to ``meta/scenes.parquet``) — all in one :class:`~mgdata.record.commit.Transaction`, so a killed
-process leaves the dataset exactly as it was after the last complete episode. Files roll over at LeRobot's
-size limits (data 100 MB, video 200 MB), for video after ``video_file_seconds``, and for data and episodes
-files after ``episodes_per_file`` episodes, so a commit costs the same at episode 1 and episode 10,000
-(dataset stats are merged incrementally too, :func:`~mgdata.record.stats.merge_stats`).
+to the last scenes file, :mod:`mgdata.record.scenes`) — all in one
+:class:`~mgdata.record.commit.Transaction`, so a killed process leaves the dataset exactly as it was after
+the last complete episode. Files roll over at LeRobot's size limits (data 100 MB, video 200 MB), for video
+after ``video_file_seconds``, for data and episodes files after ``episodes_per_file`` episodes and for
+scenes files after ``scenes_per_file`` scenes, so a commit costs the same at episode 1 and episode 10,000
+(dataset stats are merged incrementally too, :func:`~mgdata.record.stats.merge_stats`), and the writer
+holds only the scenes it appends against (:class:`~mgdata.record.scenes.SceneAppender`).
 
 Example::
 
@@ -52,7 +54,7 @@ from mgdata.record.metafiles import (
     write_tasks,
 )
 from mgdata.record.reader import DatasetReader, read_parquet
-from mgdata.record.scenes import Scenes
+from mgdata.record.scenes import SceneAppender
 from mgdata.record.staging import EpisodeStager, StagedEpisode
 from mgdata.record.stats import FeatureStats, image_stats, merge_stats, numeric_stats, stats_to_json
 from mgdata.record.video import VideoSettings, remux
@@ -81,7 +83,8 @@ class DatasetWriter:
         self._numeric: dict[str, FeatureStats] = {}  # dataset stats of the numeric features (merged)
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
-        self._scenes = Scenes([])
+        self._scenes = SceneAppender(int(info["mgdata"].get("scenes_per_file") or layout.SCENES_PER_FILE),
+                                     int(info["chunks_size"]))
         self._stager: EpisodeStager | None = None
         self._stale = False  # a commit failed half-way: memory no longer matches the disk
 
@@ -94,7 +97,8 @@ class DatasetWriter:
                video_file_mb: int = layout.VIDEO_FILE_MB,
                video_file_seconds: float = layout.VIDEO_FILE_SECONDS, hold_steps: int | None = None,
                kept_only: bool = False, mgdata: dict | None = None,
-               episodes_per_file: int | None = layout.EPISODES_PER_FILE) -> DatasetWriter:
+               episodes_per_file: int | None = layout.EPISODES_PER_FILE,
+               scenes_per_file: int = layout.SCENES_PER_FILE) -> DatasetWriter:
         """Start a new dataset in ``root`` (absent or empty). ``spec`` is stored in ``info.json``, and so
         are the promises ``mgdata validate`` audits: ``hold_steps`` (a successful episode ends with the goal
         held on its last ``hold_steps`` frames) and ``kept_only`` (every episode passed the gate; a
@@ -116,10 +120,13 @@ class DatasetWriter:
                                    f"schema's {list(schema.constraints)}")
         if hold_steps is not None and hold_steps < 1:
             raise DatasetError(f"hold_steps must be >= 1, got {hold_steps}")
+        if scenes_per_file < 1:
+            raise DatasetError(f"scenes_per_file must be >= 1, got {scenes_per_file}")
         video = VideoSettings(codec=codec, crf=crf, preset=preset, gop=gop)
         info = build_info(schema, video, spec, chunks_size=chunks_size, data_file_mb=data_file_mb,
                           video_file_mb=video_file_mb, video_file_seconds=video_file_seconds,
-                          hold_steps=hold_steps, kept_only=kept_only, episodes_per_file=episodes_per_file)
+                          hold_steps=hold_steps, kept_only=kept_only, episodes_per_file=episodes_per_file,
+                          scenes_per_file=scenes_per_file)
         info["mgdata"].update({k: v for k, v in (mgdata or {}).items() if k not in info["mgdata"]})
         root.mkdir(parents=True, exist_ok=True)
         lock = WriterLock(root)
@@ -157,7 +164,8 @@ class DatasetWriter:
             data_file_mb=int(info["data_files_size_in_mb"]),
             video_file_mb=int(info["video_files_size_in_mb"]),
             video_file_seconds=float(mg["video_file_seconds"]), hold_steps=source.hold_steps,
-            kept_only=source.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file"))
+            kept_only=source.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file"),
+            scenes_per_file=mg.get("scenes_per_file") or layout.SCENES_PER_FILE)
 
     @classmethod
     def open(cls, root: Path, schema: DatasetSchema | None = None) -> DatasetWriter:
@@ -195,7 +203,7 @@ class DatasetWriter:
         """Rebuild the in-memory state (records, tasks, stats inputs) from the committed files."""
         reader = DatasetReader(self.root)
         self._records, self._tasks = reader.records(), list(reader.tasks)
-        self._scenes = Scenes.read(self.root / layout.SCENES_PATH)
+        self._scenes = SceneAppender.load(reader.scenes(), self._scenes.per_file, self._scenes.chunks_size)
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
             self._episodes_table = last.cast(table_schema(self.schema))  # canonical list field names
@@ -350,12 +358,12 @@ class DatasetWriter:
             remux(parts, tx.path(layout.video_path(key, ref)), s.fps)
             spans[key] = VideoSpan(ref, offset / s.fps, (offset + length) / s.fps)
 
-        # the compiled scene, once per base task
+        # the compiled scene, once per base task: rewrites the last scenes file only (or starts the next)
         scene, scenes = None, self._scenes
         if staged.scene_file is not None:
             scene, scenes = scenes.with_scene(staged.meta.task_id, staged.scene_file.read_bytes())
             if scenes is not self._scenes:
-                scenes.write(tx.path(layout.SCENES_PATH))
+                scenes.write(tx.path(scenes.path))
 
         # per-episode and dataset stats
         ep_stats: dict[str, FeatureStats] = {
@@ -386,6 +394,8 @@ class DatasetWriter:
         new_info = dict(info, total_episodes=ep + 1, total_frames=total, total_tasks=len(tasks),
                         splits={"train": f"0:{ep + 1}"})
         new_info["mgdata"] = dict(info["mgdata"], sha256=dict(sorted(checksums.items())))
+        if scenes is not self._scenes:  # a dataset written before chunked scenes learns its file size
+            new_info["mgdata"]["scenes_per_file"] = scenes.per_file
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
         return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes
 
@@ -413,7 +423,7 @@ class DatasetWriter:
             self._apply(*state)
 
     def _apply(self, record: EpisodeRecord, tasks: list[str], numeric: dict[str, FeatureStats],
-               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: Scenes) -> None:
+               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: SceneAppender) -> None:
         self._records.append(record)
         self._tasks = tasks
         self._numeric = numeric

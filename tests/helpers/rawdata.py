@@ -16,13 +16,24 @@ def episodes(root: Path) -> list[dict]:
     return [row for path in files for row in pq.read_table(path).to_pylist()]
 
 
+def scene_row(root: Path, key: str) -> dict:
+    """The row of scene ``key``: from ``meta/scenes/chunk-*/file-*.parquet`` (one row group per scene) or, in
+    a dataset written before chunked scenes, ``meta/scenes.parquet``; only the row groups that can hold it
+    are decoded."""
+    files = [*root.glob("meta/scenes.parquet"), *sorted(root.glob("meta/scenes/chunk-*/file-*.parquet"))]
+    for path in files:
+        rows = pq.read_table(path, filters=[("scene", "==", key)]).to_pylist()
+        if rows:
+            return rows[0]
+    raise KeyError(f"{root}: no scene {key!r} in {[str(p) for p in files]}")
+
+
 def scene_model(root: Path, key: str) -> mujoco.MjModel:
-    """The MjModel stored for ``key`` in ``meta/scenes.parquet`` (whole, or an XOR delta against its base)."""
-    scenes = {row["scene"]: row for row in pq.read_table(root / "meta/scenes.parquet").to_pylist()}
-    row = scenes[key]
+    """The MjModel stored for scene ``key`` (whole, or an XOR delta against its base)."""
+    row = scene_row(root, key)
     mjb = np.frombuffer(row["data"], np.uint8)
     if row["base"] is not None:
-        mjb = mjb ^ np.frombuffer(scenes[row["base"]]["data"], np.uint8)
+        mjb = mjb ^ np.frombuffer(scene_row(root, row["base"])["data"], np.uint8)
     return mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": mjb.tobytes()})
 
 

@@ -21,7 +21,7 @@ from mgdata.record.episode import MemorySink
 from mgdata.record.physics import STATE_SPEC, model_bytes, physics_state, set_physics_state
 from mgdata.record.reader import DatasetReader
 from mgdata.record.recorder import Recorder, schema_for
-from mgdata.record.scenes import Scenes
+from mgdata.record.scenes import Scenes, write_scenes
 from mgdata.record.staging import EpisodeStager
 from mgdata.record.validate import validate_dataset
 from mgdata.record.writer import DatasetWriter
@@ -34,6 +34,8 @@ from mgdata.tasks.recipe import load_recipe
 from tests.helpers.repo import REPO
 
 CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
+SCENES = layout.scenes_path(layout.FileRef())
+"""The first scenes file (these tests' datasets have one)."""
 
 
 def _scene(task_id: int = 0) -> Scene:
@@ -167,14 +169,15 @@ def test_one_scene_per_task_delta_coded_and_referenced_from_the_episodes_table(r
     ids = [reader.record(e).scene for e in range(3)]
     assert re.fullmatch(r"task_000000_[0-9a-f]{16}", ids[0]) and ids[1].startswith("task_000001_")
     assert ids[2] == ids[0]
-    rows = pq.read_table(recorded / layout.SCENES_PATH).to_pylist()
+    rows = pq.read_table(recorded / SCENES).to_pylist()
     assert [(r["scene"], r["base"]) for r in rows] == [(ids[0], None), (ids[1], ids[0])]
+    assert sorted(recorded.glob("meta/scenes*")) == [recorded / layout.SCENES_DIR]
     for e, task_id in enumerate(TASKS):
         assert reader.scene_mjb(e) == model_bytes(_scene(task_id).model)
     assert len(rows[1]["data"]) == rows[1]["size"] and rows[0]["size"] > 4_000_000
     # one whole model (with the far level-of-detail robot meshes, docs/render.md) + one small delta
-    assert (recorded / layout.SCENES_PATH).stat().st_size < 2_600_000 + 100_000
-    assert reader.info["mgdata"]["sha256"][layout.SCENES_PATH] == sha256_file(recorded / layout.SCENES_PATH)
+    assert (recorded / SCENES).stat().st_size < 2_600_000 + 100_000
+    assert reader.info["mgdata"]["sha256"][SCENES] == sha256_file(recorded / SCENES)
     feature = reader.info["features"][layout.PHYSICS_STATE]
     assert feature["dtype"] == "float64" and feature["shape"] == [78]
     assert feature["info"]["mujoco_state_spec"] == STATE_SPEC
@@ -195,13 +198,13 @@ def test_model_bytes_are_identical_across_processes(recorded: Path) -> None:
 
 def test_a_broken_scene_is_reported(recorded: Path, tmp_path: Path) -> None:
     root = shutil.copytree(recorded, tmp_path / "ds")
-    path = root / layout.SCENES_PATH
+    path = root / SCENES
     rows = pq.read_table(path).to_pylist()
     rows[1]["data"] = rows[1]["data"][:-1] + b"x"  # one byte of the delta-coded scene
     rows.append({**rows[1], "scene": "task_000009_0000000000000000"})
-    Scenes(rows).write(path)
+    write_scenes(rows, path)
     info = json.loads((root / layout.INFO_PATH).read_text())
-    info["mgdata"]["sha256"][layout.SCENES_PATH] = sha256_file(path)  # a consistent forgery
+    info["mgdata"]["sha256"][SCENES] = sha256_file(path)  # a consistent forgery
     (root / layout.INFO_PATH).write_text(json.dumps(info))
     problems = validate_dataset(root).problems
     assert problems == [
@@ -233,18 +236,19 @@ def test_training_views_drop_the_simulator_state_and_v21_keeps_it(recorded: Path
     assert report.ok, report.problems
     view = DatasetReader(smol)
     assert view.schema.physics_state_size == 0 and view.physics_spec is None
-    assert not (smol / layout.SCENES_PATH).exists() and view.episode(0).physics_state is None
+    assert not list(smol.glob("meta/scenes*")) and view.episode(0).physics_state is None
     for fmt in ("pi0", "groot"):
         out = export_dataset(recorded, tmp_path / fmt, fmt, overview="front")
         info = json.loads((out / "meta/info.json").read_text())
-        assert layout.PHYSICS_STATE not in info["features"] and not (out / layout.SCENES_PATH).exists()
+        assert layout.PHYSICS_STATE not in info["features"] and not list(out.glob("meta/scenes*"))
     v21 = export_dataset(recorded, tmp_path / "v21", "v2.1")
     src = DatasetReader(recorded)
     rows = pq.read_table(v21 / "data/chunk-000/episode_000001.parquet")
     stored = np.stack(rows.column(layout.PHYSICS_STATE).to_pylist())
     assert np.array_equal(stored, src.episode(1).physics_state)
     scene = json.loads((v21 / "meta/mgdata_episodes.jsonl").read_text().splitlines()[1])["scene"]
-    assert Scenes.read(v21 / layout.SCENES_PATH).mjb(scene) == src.scene_mjb(1)
+    assert (v21 / SCENES).read_bytes() == (recorded / SCENES).read_bytes()  # copied as it is
+    assert Scenes.read(v21).mjb(scene) == src.scene_mjb(1)
 
 
 def test_an_executor_attempt_replays_bit_identically_from_its_recorded_states() -> None:
