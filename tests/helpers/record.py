@@ -3,10 +3,16 @@
 from __future__ import annotations
 
 import hashlib
+import json
+import shutil
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
+from mgdata.record.commit import sha256_file
+from mgdata.record.metafiles import dump_json
 from mgdata.record.synthetic import SYNTHETIC_SPEC, SyntheticEpisode, synthetic_episode, synthetic_schema
 from mgdata.record.writer import DatasetWriter
 
@@ -32,6 +38,23 @@ def write_dataset(root: Path, episodes: list[SyntheticEpisode], **kwargs) -> Pat
     with DatasetWriter.create(root, schema, spec=SYNTHETIC_SPEC, **kwargs) as writer:
         write_episodes(writer, episodes)
     return root
+
+
+def to_legacy_scenes(root: Path) -> None:
+    """Give a dataset the scenes layout of mgdata before chunked scenes: every row in one
+    ``meta/scenes.parquet`` written as that code wrote it (one table, one row group, zstd, no dictionary),
+    no ``mgdata.scenes_per_file``, the checksums to match."""
+    files = sorted(root.glob("meta/scenes/chunk-*/file-*.parquet"))
+    table = pa.concat_tables([pq.read_table(p) for p in files]).combine_chunks()
+    legacy = root / "meta/scenes.parquet"
+    pq.write_table(table, legacy, compression="zstd", use_dictionary=False)
+    shutil.rmtree(root / "meta/scenes")
+    info = json.loads((root / "meta/info.json").read_text())
+    mg = info["mgdata"]
+    sums = {k: v for k, v in mg["sha256"].items() if not k.startswith("meta/scenes/")}
+    mg["sha256"] = dict(sorted({**sums, "meta/scenes.parquet": sha256_file(legacy)}.items()))
+    del mg["scenes_per_file"]
+    (root / "meta/info.json").write_text(dump_json(info))
 
 
 def tree_digest(root: Path) -> dict[str, str]:
