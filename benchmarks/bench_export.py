@@ -7,7 +7,7 @@
 - ``--sweep``: x264 preset / GOP choices (encode only) with size and PSNR, to justify the defaults;
 - the storage cost of self-contained datasets (issue 8) on a real ``mgdata generate`` jar dataset
   (``--jar-demos``, 0 to skip): ``sim.physics_state`` bytes per frame as stored (parquet-compressed) and the
-  compiled scenes (``meta/scenes.parquet``), each as a share of the dataset.
+  compiled scenes (``meta/scenes/``), each as a share of the dataset.
 
 Run: ``.venv/bin/python benchmarks/bench_export.py [--episodes 40 --length 250 --codec h264 --sweep
 --jar-demos 4]``
@@ -106,16 +106,17 @@ def bench_physics(work: Path, demos: int) -> None:
     frames, width = reader.num_frames, reader.schema.physics_state_size
     size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     state = _column_bytes(out, layout.PHYSICS_STATE)
-    scenes_file = (out / layout.SCENES_PATH).stat().st_size
-    rows = Scenes.read(out / layout.SCENES_PATH).rows
-    first = next(len(r["data"]) for r in rows if r["base"] is None)
+    scenes = Scenes.read(out)
+    scenes_file = sum((out / f).stat().st_size for f in scenes.files)
+    rows = scenes.rows
+    first = next(r.size for r in rows if r.base is None)
     print(f"self-contained jar dataset ({summary.total_kept} kept demos of {len(rows)} tasks, {frames} "
           f"frames, 5 cameras {reader.schema.image_width}², {size / 1e6:.2f} MB)")
     print(f"  sim.physics_state             {width} float64 = {8 * width} B raw, {state / frames:.0f} B per "
           f"frame stored ({100 * state / size:.1f} % of the dataset)")
-    whole = sum(1 for r in rows if r["base"] is None)
-    print(f"  scenes (meta/scenes.parquet)  {scenes_file / 1e6:.2f} MB for {len(rows)} tasks, {whole} whole "
-          f"+ {len(rows) - whole} XOR deltas (MJB {first / 1e6:.1f} MB per task raw; "
+    whole = sum(1 for r in rows if r.base is None)
+    print(f"  scenes (meta/scenes/, {len(scenes.files)} files)  {scenes_file / 1e6:.2f} MB for {len(rows)} "
+          f"tasks, {whole} whole + {len(rows) - whole} XOR deltas (MJB {first / 1e6:.1f} MB per task raw; "
           f"{100 * scenes_file / size:.1f} % of the dataset)")
     t0 = time.perf_counter()
     report = validate_dataset(out)
