@@ -1,7 +1,7 @@
-"""DART perturbations: smooth, bounded, seeded offsets on a planned segment's joint targets.
+"""Recovery perturbations: smooth, bounded, seeded offsets on a planned segment's joint targets.
 
-Executing a planned segment of ``n`` control steps, step ``k`` (``s = (k + 1) / n``) commands the plan's
-target plus
+``dart`` (:meth:`Perturbation.segment`): executing a planned segment of ``n`` control steps, step ``k``
+(``s = (k + 1) / n``) commands the plan's target plus
 
     δ(s) = A/2 · (u · sin²(πs) + v · sin(πs) · sin(2πs)),   u, v ~ U[-1, 1]⁷ per segment,
 
@@ -12,11 +12,15 @@ variation (``rng("perturb/<i>/<segment>")``): the draws are recorded per episode
 seed. The recorded ``action`` stays the plan's target (the label: the motion back to the path); the
 executed command is stored beside it.
 
+``replan`` (:meth:`Perturbation.push`): one push per segment, ``A · u · sin²(π/2 · j / m)`` over ``m =
+push_steps`` steps from a drawn step on (labelled with the plan's targets too), after which the executor plans
+the rest of the segment again from the pushed configuration (:mod:`mgdata.engine.executor`).
+
 Example::
 
     pert = Perturbation(recipe.recovery)
     offsets = pert.segment(3, "approach", var.rng("perturb/3/approach"), steps=40, start=112)  # (40, 7)
-    pert.as_meta()   # {"mode": "dart", "amplitude": 0.02, "segments": [...]}
+    pert.as_meta()   # {"mode": "dart", "amplitude": 0.03, "push_steps": 10, "segments": [...]}
 """
 
 from __future__ import annotations
