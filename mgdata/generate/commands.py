@@ -75,7 +75,7 @@ def register(app: typer.Typer) -> None:
         family: Annotated[str, typer.Option(
             help="Task family (recipe + skeleton), or 'all': one dataset per family under --out.")] = "jar",
         n: Annotated[int | None, typer.Option("--n", help="Kept demonstrations wanted in the dataset "
-                                                          "[default: 40].", show_default=False)] = None,
+                                                          "\\[default: 40].", show_default=False)] = None,
         per_task: Annotated[int | None, typer.Option(
             help="Kept demonstrations wanted per base task (instead of --n; the paper's release: 40).")]
         = None,
@@ -109,9 +109,9 @@ def register(app: typer.Typer) -> None:
                  "or all (a task's draws cycle through the five).")] = "base",
         recovery: Annotated[str | None, typer.Option(
             help="Demonstrations that show recovery: 'dart' executes every planned segment with a smooth "
-                 "seeded offset on its joint targets (the recipe's [recovery] amplitude) and records the "
+                 "seeded offset on its joint targets (the recipe's \\[recovery] amplitude) and records the "
                  "plan's targets as the actions; 'replan' pushes the arm off each planned segment once and "
-                 "plans the rest again from there; 'off' plain demos [default: the recipe's [recovery] "
+                 "plans the rest again from there; 'off' plain demos \\[default: the recipe's \\[recovery] "
                  "mode, off].", show_default=False)] = None,
     ) -> None:
         """Generate safety-gated demonstrations into a LeRobot v3.0 dataset; re-run to resume.
