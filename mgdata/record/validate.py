@@ -11,6 +11,7 @@ import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -22,7 +23,7 @@ from mgdata.record.command_audit import audit_commands
 from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
 from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
-from mgdata.record.reader import DatasetReader
+from mgdata.record.reader import DatasetReader, EpisodeData
 from mgdata.record.scenes import Scenes, scene_files, scenes_file_ref
 from mgdata.record.stats import STAT_KEYS, FeatureStats, image_stats, merge_stats, numeric_stats
 from mgdata.record.video import check_decodes, decode, probe
@@ -359,12 +360,21 @@ def _check_commands(reader: DatasetReader, records: list[EpisodeRecord], report:
     stepped with, within the recorded amplitude of the actions."""
     if not reader.schema.executed_action or reader.physics_spec is None:
         return
-    from mgdata.record.physics import model_from_bytes  # MuJoCo only for datasets that store its state
-
     recovery = recovery_from_info(reader.info, str(reader.root / layout.INFO_PATH))
     if recovery is None:
         report.problems.append(f"{reader.root / layout.INFO_PATH}: the dataset stores "
                                f"{layout.EXECUTED_ACTION} but no mgdata.recovery (mode, amplitude)")
+    amplitude = recovery.amplitude if recovery else None
+    _audit_episodes(reader, records, report, "command audit",
+                    lambda ep, model: audit_commands(ep, model, amplitude))
+
+
+def _audit_episodes(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport, name: str,
+                    audit: Callable[[EpisodeData, Any], list[str]]) -> None:
+    """``audit(episode, model)`` of every episode with a scene (each scene's model built once), its
+    problems (or its error, as ``episode i: <name>: …``) into ``report``."""
+    from mgdata.record.physics import model_from_bytes  # MuJoCo only for datasets that store its state
+
     scenes, models = reader.scenes(), {}
     for rec in records:
         if rec.scene is None:
@@ -372,10 +382,9 @@ def _check_commands(reader: DatasetReader, records: list[EpisodeRecord], report:
         try:
             if rec.scene not in models:
                 models[rec.scene] = model_from_bytes(scenes.mjb(rec.scene))
-            report.problems += audit_commands(reader.episode(rec.index), models[rec.scene],
-                                              recovery.amplitude if recovery else None)
+            report.problems += audit(reader.episode(rec.index), models[rec.scene])
         except _ERRORS as err:
-            report.problems.append(f"episode {rec.index}: command audit: {err}")
+            report.problems.append(f"episode {rec.index}: {name}: {err}")
 
 
 def _check_physics(reader: DatasetReader, records: list[EpisodeRecord], report: ValidationReport) -> None:
@@ -384,20 +393,8 @@ def _check_physics(reader: DatasetReader, records: list[EpisodeRecord], report: 
     gate = PhysicsGate.from_info(reader.info, str(reader.root / layout.INFO_PATH))
     if gate is None or reader.physics_spec is None:
         return
-    from mgdata.record.physics import model_from_bytes  # MuJoCo only for datasets that store its state
-
     auditor = PhysicsAuditor(gate, hold_steps=reader.hold_steps, fps=reader.schema.fps)
-    scenes = reader.scenes()
-    models: dict[str, object] = {}
-    for rec in records:
-        if rec.scene is None:
-            continue
-        try:
-            if rec.scene not in models:
-                models[rec.scene] = model_from_bytes(scenes.mjb(rec.scene))
-            report.problems += auditor.audit(reader.episode(rec.index), models[rec.scene])
-        except _ERRORS as err:
-            report.problems.append(f"episode {rec.index}: physics audit: {err}")
+    _audit_episodes(reader, records, report, "physics audit", auditor.audit)
     measured = [r for r in records if r.meta.max_penetration is not None]
     if measured:
         worst = max(measured, key=lambda r: r.meta.max_penetration or 0.0)
