@@ -353,10 +353,11 @@ def print_ablation(reports: dict[str, dict]) -> None:
     rows = []
     for spec, rep in reports.items():
         d, ev = rep["data"], rep.get("eval", {})
-        cpu_h = max(float(d["cpu_s"]), 1e-9) / 3600.0
+        cpu_h = float(d["cpu_s"]) / 3600.0
         kept_share = 100 * d["episodes"] / max(d["attempts"], 1)
+        per_cpu_h = f"{d['episodes'] / cpu_h:.0f}" if d["cpu_s"] > 1 else "(reused)"  # data of another arm
         rows.append((spec, str(d["episodes"]), str(d["frames"]), f"{kept_share:.0f} %",
-                     f"{d['episodes'] / cpu_h:.0f}", str(rep["train"]["steps"]),
+                     per_cpu_h, str(rep["train"]["steps"]),
                      _rate(ev.get("heldout"), "ssr"), _rate(ev.get("heldout"), "evr"),
                      _rate(ev.get("heldout"), "tsr"), _rate(ev.get("base"), "ssr"),
                      _rate(ev.get("base"), "evr")))
