@@ -22,6 +22,7 @@ class DatasetSummary:
         size_bytes: bytes on disk (dataset files only).
         penetration: the deepest contact overlap over every episode's frames (m), its episode, frame and
             bodies (``None``: no episode records it); ``penetration_bound``: the gate's ``max_penetration``.
+        recovery: ``info.json`` ``mgdata.recovery`` of a dataset of perturbed demonstrations (else ``None``).
     """
 
     root: Path
@@ -41,6 +42,7 @@ class DatasetSummary:
     size_bytes: int
     penetration: tuple[float, int, int | None, str] | None = None
     penetration_bound: float | None = None
+    recovery: dict | None = None
 
     @property
     def duration_s(self) -> float:
@@ -74,6 +76,7 @@ def summarize(root: Path) -> DatasetSummary:
         unsafe=sum(not m.verdict for m in metas), attempts=reader.info["mgdata"].get("attempts"),
         draws=sum(d + 1 for d in last_draw.values()), size_bytes=size,
         penetration=max(measured, key=lambda x: x[0]) if measured else None, penetration_bound=bound,
+        recovery=reader.info["mgdata"].get("recovery"),
     )
 
 
@@ -88,6 +91,9 @@ def format_summary(s: DatasetSummary) -> list[str]:
         yld = f"{s.yield_:.1%} ({s.kept} kept of {s.attempts} attempts)"
     else:
         yld = f"{s.yield_:.1%} ({s.kept} kept of {s.draws} draws, from the draw indices)"
+    recovery = [] if not s.recovery else [
+        f"recovery    {s.recovery.get('mode')}, amplitude {s.recovery.get('amplitude')} rad "
+        f"(action: the plan's targets; {layout.EXECUTED_ACTION}: what ran)"]
     return [
         f"dataset     {s.root}",
         f"episodes    {s.episodes} ({s.kept} kept, {s.negatives} labelled negatives, {s.unsafe} unsafe)",
@@ -98,6 +104,7 @@ def format_summary(s: DatasetSummary) -> list[str]:
         f"conditions  {counts(s.by_condition)}",
         f"yield       {yld}",
         f"contacts    {_contacts(s)}",
+        *recovery,
         f"size        {s.size_bytes / 1e6:.1f} MB",
     ]
 

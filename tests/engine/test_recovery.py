@@ -210,6 +210,9 @@ def test_validate_audits_the_executed_commands(perturbed_dataset: Path, tmp_path
     assert info["features"]["sim.executed_action"]["shape"] == [8]
     assert info["mgdata"]["generator"]["inputs_digest"].endswith("/recovery=dart")
     assert _validate(perturbed_dataset).returncode == 0
+    shown = subprocess.run([*MGDATA, "info", str(perturbed_dataset)], capture_output=True, text=True,
+                           timeout=600)
+    assert "recovery    dart, amplitude 0.03 rad" in shown.stdout, shown.stdout
     cases = {  # a forger's edit (stats and checksums brought up to date) -> what validate must say
         "not stepped with it": lambda v: v.__setitem__((5, 0), v[5, 0] + 0.001),
         "executed gripper command": lambda v: v.__setitem__((5, 7), 1.0 - v[5, 7]),
