@@ -287,17 +287,16 @@ class Executor:
         with state.runner.timings.measure("planning"):
             traj = slowed(self._plan(seg, ctx), seg.speed)
         pert, targets = self.perturbation, traj.q[1:]
-        if pert is None:
-            for q in targets:
-                self._step(q, grip, state)
-        elif pert.settings.mode == "dart":  # the plan plus a smooth offset; the actions stay the plan's
+        mode = pert.settings.mode if pert is not None else "off"
+        if pert is not None and mode == "dart":  # the plan plus a smooth offset; the actions stay the plan's
             rng = ctx.variation.rng(f"perturb/{state.index}/{seg.name}")
             offsets = pert.segment(state.index, seg.name, rng, len(targets), state.runner.steps)
             for q, dq in zip(targets, offsets, strict=True):
                 self._step(q, grip, state, q + dq)
-        elif seg.kind != "reverse" and len(targets) >= 3 * pert.settings.push_steps:
+        elif pert is not None and mode == "replan" and seg.kind != "reverse" \
+                and len(targets) >= 3 * pert.settings.push_steps:  # a reversal retraces its segment unpushed
             traj = self._push_and_replan(seg, ctx, state, traj, grip)
-        else:  # replan: a reversal retraces its segment; a short segment has no room for a push
+        else:
             for q in targets:
                 self._step(q, grip, state)
         ctx.executed[seg.name] = traj
