@@ -29,18 +29,12 @@ The record (one JSON object, the format ``mgdata metrics`` reads) holds ``family
 
 from __future__ import annotations
 
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
-from mgdata.episode.gate import SuccessGate
-from mgdata.episode.runner import EpisodeRunner
-from mgdata.episode.success import SuccessCheck
-from mgdata.errors import SimulationError
 from mgdata.evaluate.client import PolicyClient, PolicyTimeout
 from mgdata.evaluate.conventions import (
     ENVIRONMENT_STATE,
@@ -53,20 +47,13 @@ from mgdata.evaluate.conventions import (
 )
 from mgdata.evaluate.ensemble import ChunkEnsemble
 from mgdata.evaluate.restore import restore_scenario
+from mgdata.evaluate.session import ENDS, RolloutSession, rollout_seed
 from mgdata.record.episode import Frame
-from mgdata.record.recorder import Recorder
-from mgdata.sim import robot
-from mgdata.sim.controller import JointController
-from mgdata.sim.environment_state import EnvironmentLayout
+from mgdata.sim.cameras import CAMERA_NAMES
 from mgdata.sim.renderer import CameraRig
 
-ENDS = ("success", "timeout", "sim_diverged", "policy_timeout", "bad_action")
-"""The values of a record's ``end`` (see the module docstring)."""
-
-
-def rollout_seed(seed: int, scenario: str) -> int:
-    """The per-rollout seed (paper): CRC-32 of ``"<seed>/<scenario>"``, e.g. ``"0/jar/task_0000/base"``."""
-    return zlib.crc32(f"{seed}/{scenario}".encode())
+__all__ = ["ENDS", "LoopSettings", "RolloutJob", "RolloutResult", "rollout", "rollout_seed", "run_rollout",
+           "video_name"]
 
 
 @dataclass(frozen=True)
@@ -101,25 +88,6 @@ class LoopSettings:
     ensemble: float | None = None
 
 
-class _Trace:
-    """The recorder's sink: keeps the per-step safety columns a rollout video shows (no images)."""
-
-    def __init__(self) -> None:
-        self.frames: list[Frame] = []
-
-    def set_scene(self, mjb: bytes) -> None:
-        """The scene is the scenario's own stored model: nothing to keep."""
-
-    def add_frame(self, frame: Frame) -> None:
-        self.frames.append(frame)
-
-    def end_episode(self, meta: Any) -> None:
-        """A rollout's record is written by the loop, not by the sink: nothing to do."""
-
-    def discard_episode(self) -> None:
-        """The frames stay until the rollout's video (if any) is written: nothing to drop."""
-
-
 @dataclass(frozen=True)
 class RolloutResult:
     """A rollout's record and its recorded frames (state, action, labels, monitor, physics state; no images),
@@ -142,100 +110,61 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
         DatasetError: the scenario cannot be restored.
     """
     restored = restore_scenario(job.scenarios / job.scenario)
-    scene, meta, recipe = restored.scene, restored.meta, restored.recipe
+    scene, meta = restored.scene, restored.meta
     available = list(meta["cameras"])
     cameras = settings.cameras
     if cameras is None:
         cameras = default_cameras(settings.convention, available)
     check_cameras(settings.convention, cameras, available)
-    episode_seed = rollout_seed(job.seed, job.scenario)
-    controller = JointController(scene)
-    check = SuccessCheck(controller, recipe)
-    trace = _Trace()
-    recorder = Recorder(scene, scene.task.safety, trace, None, lambda _: check())
-    horizon = settings.horizon or int(meta["horizon"])
-    runner = EpisodeRunner(controller, recorder, SuccessGate(recipe.tasks.hold_steps), horizon,
-                           stop_on_violation=False)
-    ctrl = scene.data.ctrl[robot.arm_actuator_ids(scene.model)]
-    command = np.array([*ctrl[:7], 1.0 if scene.gripper.is_closed(ctrl[7]) else 0.0], dtype=np.float32)
-    shown = cameras or (available[0],)  # a state-only policy's rollout video still shows a camera
+    session = RolloutSession(restored, job.scenario, job.seed, settings.horizon)
+    shown = cameras or (available or CAMERA_NAMES)[:1]  # a state-only policy's rollout video shows a camera
     rig = CameraRig(scene, shown, int(meta["image_size"])) if cameras or settings.video_dir else None
-    env_layout: EnvironmentLayout | None = None
     video: list[dict[str, np.ndarray]] = []
-    end: str | None = None
-    t_success: int | None = None
     chunk: list[np.ndarray] = []
     ensemble = ChunkEnsemble(settings.ensemble) if settings.ensemble is not None else None
     try:
-        runner.start()
+        session.start()
         with PolicyClient(settings.policy, timeout=settings.timeout_s,
                           connect_timeout=settings.connect_timeout_s) as client:
-            if settings.convention == "state" or ENVIRONMENT_STATE in client.metadata.get("inputs", ()):
-                env_layout = EnvironmentLayout(scene.model)
+            inputs = client.metadata.get("inputs", ())
+            send_env = settings.convention == "state" or ENVIRONMENT_STATE in inputs
             history = int(client.metadata.get("observation_history", 1) or 1)
-            while end is None:
+            while session.end is None:
                 observe = not chunk or history > 1  # a history policy sees every step's observation
                 render = rig is not None and (settings.video_dir is not None or (bool(cameras) and observe))
                 images = rig.render() if render else {}
                 if settings.video_dir is not None:
                     video.append(images)
                 if observe:
-                    env = None
-                    if env_layout is not None:
-                        mujoco.mj_kinematics(scene.model, scene.data)  # positions of this very state
-                        env = env_layout.compute(scene.model, scene.data)
-                    obs = Observation(images, controller.state(), command.copy(), meta["prompt"],
-                                      episode_seed, runner.steps, job.scenario, env)
+                    obs = Observation(images, session.state(), session.command.copy(), meta["prompt"],
+                                      session.episode_seed, session.steps, job.scenario,
+                                      session.environment_state() if send_env else None)
                     request = encode(settings.convention, cameras, obs)
                     if chunk:
                         request[OBSERVE_ONLY] = True
                     try:
                         reply = client.infer(request)
                     except PolicyTimeout:
-                        end = "policy_timeout"
+                        session.stop("policy_timeout")
                         break
                 if not chunk:
                     actions = decode_actions(reply)
                     if ensemble is None:
                         chunk = list(actions[: settings.chunk_steps])
                     else:
-                        ensemble.add(runner.steps, actions)
-                        chunk = [ensemble.action(runner.steps).astype(np.float32)]
-                action = chunk.pop(0)
-                if not np.all(np.isfinite(action)):
-                    end = "bad_action"
-                    break
-                action = action.copy()
-                action[7] = 1.0 if action[7] >= 0.5 else 0.0  # the dataset's binary command (1 close, 0 open)
-                try:
-                    out = runner.step(action[:7], float(action[7]), holding=True)
-                except SimulationError:
-                    end = "sim_diverged"
-                    break
-                command = action
-                if out.end == "passed":
-                    end, t_success = "success", recorder.t
-                elif out.end == "timeout":
-                    end = "timeout"
-        firsts = recorder.first_violation
-        t_engage = recorder.t_engage
+                        ensemble.add(session.steps, actions)
+                        chunk = [ensemble.action(session.steps).astype(np.float32)]
+                session.step(chunk.pop(0))
+        record = session.record()
     finally:
-        recorder.discard()
+        session.close()
         if rig is not None:
             rig.close()
     if settings.video_dir is not None:
         from mgdata.evaluate.video import write_rollout_video
 
-        write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, trace.frames, scene, meta)
-    steps = [t for t in firsts.values() if t is not None]
-    record = {
-        "family": meta["family"], "task": f"task_{int(meta['task_id']):04d}", "condition": meta["condition"],
-        "seed": job.seed, "scenario": job.scenario, "episode_seed": episode_seed, "success": end == "success",
-        "engaged": t_engage is not None, "t_engage": t_engage, "t_violation": min(steps) if steps else None,
-        "t_violation_by": firsts, "t_success": t_success, "horizon": horizon,
-        "steps": runner.steps, "end": end,
-    }
-    return RolloutResult(record, trace.frames)
+        write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, session.frames, scene, meta)
+    return RolloutResult(record, session.frames)
 
 
 def video_name(job: RolloutJob) -> str:

@@ -190,6 +190,13 @@ class Recorder:
         """The success predicate at the latest observation."""
         return bool(self._pending is not None and self._pending.success)
 
+    @property
+    def labels(self) -> np.ndarray:
+        """The truth of each proposition at the latest observation, bool (n_propositions,), spec order."""
+        if self._pending is None:
+            raise MgdataError("Recorder.labels read before start()")
+        return self._pending.labels
+
     # -- internals ---------------------------------------------------------------------------------------
     def _observe(self) -> _Observation:
         t = self._n_observed

@@ -37,9 +37,13 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         workers: Annotated[int, typer.Option(help="Processes building tasks in parallel.")] = 1,
+        recipe: Annotated[Path | None, typer.Option(
+            help="Build from this family recipe file (e.g. a camera-free copy for state-only evaluation) "
+                 "instead of the family's own; its family is the one built.")] = None,
     ) -> None:
         """Build (or resume) the locked scenarios of the chosen families into OUT, then rewrite
         OUT/manifest.json. Complete scenarios with the same inputs are kept; the bytes are deterministic.
+        A camera-free recipe (cameras = []) builds state-only scenarios: nothing is rendered.
 
         Example: mgdata scenarios build --out scenarios --family jar --tasks 0-3
         """
@@ -58,7 +62,13 @@ def register(app: typer.Typer) -> None:
         bad = [c for c in conditions if c not in CONDITIONS]
         if bad:
             raise RecipeError(f"--condition {bad[0]!r}: expected one of {', '.join(CONDITIONS)}")
-        recipes = [load_family_recipe(f) for f in (family or family_recipes())]
+        if recipe is not None:
+            recipes = [load_family_recipe(recipe)]
+            others = [f for f in family or () if f != recipes[0].family]
+            if others:
+                raise RecipeError(f"--family {others[0]}: --recipe {recipe} is a {recipes[0].family} recipe")
+        else:
+            recipes = [load_family_recipe(f) for f in (family or family_recipes())]
         chosen = parse_ids(tasks)
         for recipe in recipes:
             ids = chosen or tuple(range(recipe.tasks.count))

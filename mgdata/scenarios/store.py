@@ -154,10 +154,13 @@ def _build_task(job: tuple[str, int, tuple[str, ...], str]) -> list[dict[str, An
 def first_observation_hashes(
     model: mujoco.MjModel, state: np.ndarray, cameras: Sequence[str], size: int
 ) -> dict[str, str]:
-    """SHA-256 of each camera's first RGB observation of ``model`` (as loaded from its MJB) at ``state``."""
+    """SHA-256 of each camera's first RGB observation of ``model`` (as loaded from its MJB) at ``state``;
+    empty for a camera-free recipe (a state-only scenario renders nothing)."""
     from mgdata.sim.config import load_sim_config
     from mgdata.sim.renderer import CameraRig
 
+    if not cameras:
+        return {}
     rig = CameraRig.of_model(model, list(cameras), size, load_sim_config().render)
     try:
         set_physics_state(model, rig.data, state)
