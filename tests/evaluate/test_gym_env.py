@@ -3,6 +3,7 @@ envs, and the same rollout through the environment and through ``mgdata eval`` g
 
 from __future__ import annotations
 
+import json
 import shutil
 import warnings
 from pathlib import Path
@@ -165,20 +166,27 @@ def test_an_unsafe_replay_costs_one_on_the_step_of_its_violation(scenario_set: P
     env.close()
 
 
-def test_a_vector_of_four_environments_runs(scenario_set: Path) -> None:
+def test_a_vector_of_four_environments_runs_and_records_the_episodes_it_was_asked_for(
+        scenario_set: Path, tmp_path: Path) -> None:
+    records = tmp_path / "rollouts.jsonl"
     envs = gym.vector.AsyncVectorEnv(
-        [lambda: gym.make(env_id("jar"), tasks=(0,), scenarios=scenario_set) for _ in range(4)])
+        [lambda: gym.make(env_id("jar"), tasks=(0,), scenarios=scenario_set, horizon=12, records=records)
+         for _ in range(4)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
     try:
-        obs, info = envs.reset(seed=0)
+        obs, info = envs.reset(seed=[0, 1, 2, 3])
         assert obs["agent_pos"].shape == (4, 8)
         assert np.array_equal(obs["agent_pos"][0], obs["agent_pos"][3])  # the same scenario, bit for bit
         envs.action_space.seed(1)
-        for _ in range(20):
-            obs, _, _, _, info = envs.step(envs.action_space.sample())
-        assert obs["environment_state"].shape[0] == 4 and np.all(np.isfinite(obs["environment_state"]))
-        assert info["step"].tolist() == [20] * 4
+        for _ in range(12):
+            obs, _, _, truncated, info = envs.step(envs.action_space.sample())
+        assert truncated.all() and np.all(np.isfinite(obs["environment_state"]))
+        assert info["step"].tolist() == [0] * 4  # reset in the same step (autoreset)
+        for _ in range(12):  # the autoreset episodes run out too, unrecorded
+            envs.step(envs.action_space.sample())
     finally:
         envs.close()
+    got = sorted(json.loads(line)["seed"] for line in records.read_text().splitlines())
+    assert got == [0, 1, 2, 3]  # task 0 under base seeds 0 … 3, one record each
 
 
 def test_a_camera_free_recipe_builds_state_only_scenarios_on_first_use(
