@@ -9,6 +9,7 @@
 - :mod:`~mgdata.record.validate`: ``mgdata validate`` (structure, counts, stats, checksums, and the audit
   of what the gate promised, :mod:`~mgdata.record.audit`).
 - :mod:`~mgdata.record.views`, :mod:`~mgdata.record.export_v21`: loader views and the v2.1 export.
+- :mod:`~mgdata.record.card`: the dataset card (``README.md``, the Hub's page) every writer keeps current.
 - :mod:`~mgdata.record.layout`: the on-disk format; ``docs/dataset-format.md`` describes it in full.
 
 Submodules are imported explicitly (nothing heavy is imported here).

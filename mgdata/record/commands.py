@@ -1,4 +1,5 @@
-"""CLI commands on datasets: ``mgdata validate``, ``mgdata info``, ``mgdata export``, ``mgdata render``."""
+"""CLI commands on datasets: ``mgdata validate``, ``mgdata card``, ``mgdata info``, ``mgdata export``,
+``mgdata render``."""
 
 from __future__ import annotations
 
@@ -58,6 +59,20 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"{dataset}: {len(report.problems)} problem(s)", err=True)
             raise typer.Exit(1)
         typer.echo(f"{dataset}: ok ({report.episodes} episodes, {report.frames} frames)")
+
+    @app.command("card")
+    def card(dataset: Dataset) -> None:
+        """Write a dataset's card, README.md (the page the Hugging Face Hub shows), from its metadata.
+
+        Every command that writes a dataset writes its card; this rewrites it for a dataset written before
+        cards or one whose card was edited (mgdata validate reports both).
+        Example: mgdata card datasets/jar
+        """
+        from mgdata.record.card import write_card
+
+        if not dataset.is_dir():
+            raise DatasetError(f"{dataset}: no such dataset folder")
+        typer.echo(f"wrote {write_card(dataset)}")
 
     @app.command("info")
     def info(

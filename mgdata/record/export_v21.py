@@ -11,6 +11,7 @@ Layout (as LeRobot 0.3.x wrote it and as openpi and GR00T N1.5 read it)::
     meta/scenes/chunk-*/file-*.parquet   the compiled scenes, copied as they are (``meta/scenes.parquet`` from
                                    a dataset written before chunked scenes; only with physics states)
     meta/modality.json             GR00T only
+    README.md                      the view's dataset card (:mod:`mgdata.record.card`)
     data/chunk-000/episode_000000.parquet
     videos/chunk-000/<video key>/episode_000000.mp4
 
@@ -23,7 +24,9 @@ import json
 import math
 from pathlib import Path
 
+from mgdata.atomic import write_text_atomic
 from mgdata.record import layout
+from mgdata.record.card import reader_tally, render_card
 from mgdata.record.metadata import meta_to_dict
 from mgdata.record.metafiles import dump_json
 from mgdata.record.reader import DatasetReader
@@ -32,6 +35,10 @@ from mgdata.record.video import remux
 from mgdata.record.views import ViewSpec, copy_scenes, rename_stats, rename_table, renamed_features
 
 V21 = "v2.1"
+CARRIED = ("spec", "hold_steps", "kept_only", "attempts", "generator", "physics_gate", "recovery",
+           "rendered_from")
+"""The source's ``mgdata`` block entries a v2.1 export keeps (what it is and how it was made; not the v3.0
+writer's settings or checksums), in the source's order."""
 V21_DATA_PATH = "data/chunk-{episode_chunk:03d}/episode_{episode_index:06d}.parquet"
 V21_VIDEO_PATH = "videos/chunk-{episode_chunk:03d}/{video_key}/episode_{episode_index:06d}.mp4"
 
@@ -92,8 +99,10 @@ def write_v21(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
         "chunks_size": chunks_size, "fps": fps, "splits": {"train": f"0:{n}"},
         "data_path": V21_DATA_PATH, "video_path": V21_VIDEO_PATH if view.cameras else None,
         "features": renamed_features(reader, view),
-        "mgdata": {"spec": reader.info["mgdata"].get("spec"), "exported_from": layout.CODEBASE_VERSION},
+        "mgdata": {**{k: v for k, v in reader.info["mgdata"].items() if k in CARRIED},
+                   "exported_from": layout.CODEBASE_VERSION, "exported_as": view.name},
     }
     (meta / "info.json").write_text(dump_json(info))
     if view.modality:
         (meta / "modality.json").write_text(dump_json(modality(reader, view)))
+    write_text_atomic(out / layout.CARD_PATH, render_card(info, reader.tasks, reader_tally(reader)))

@@ -43,6 +43,8 @@ SCENES_PER_FILE = 20
 INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
+# The dataset card the Hugging Face Hub shows (mgdata/record/card.py): derived, so not in the checksums.
+CARD_PATH = "README.md"
 # Datasets written before chunked scenes hold every scene in this one file (still read; a resumed one keeps
 # it as it is and adds new scenes in SCENES_DIR's files).
 LEGACY_SCENES_PATH = "meta/scenes.parquet"

@@ -1,4 +1,4 @@
-"""``mgdata validate``: check a dataset's structure, counts, timestamps, stats and safety record.
+"""``mgdata validate``: check a dataset's structure, counts, timestamps, stats, safety record and card.
 
 Every problem is one line naming the file or episode; nothing raises past :func:`validate_dataset` for a
 corrupt dataset. Work left by an interrupted writer (staged episodes, an uncommitted or not yet installed
@@ -19,9 +19,11 @@ import pyarrow as pa
 from mgdata.errors import DatasetError, MgdataError
 from mgdata.record import layout
 from mgdata.record.audit import SafetyAuditor
+from mgdata.record.card import card_of
 from mgdata.record.command_audit import audit_commands
 from mgdata.record.commit import sha256_file
 from mgdata.record.episodes import EpisodeRecord, stats_features
+from mgdata.record.frontmatter import card_problem
 from mgdata.record.physics_audit import PhysicsAuditor, PhysicsGate
 from mgdata.record.reader import DatasetReader, EpisodeData
 from mgdata.record.scenes import Scenes, scene_files, scenes_file_ref
@@ -79,6 +81,7 @@ def validate_dataset(root: Path, *, decode_all: bool = False) -> ValidationRepor
     _guard(report, lambda: _check_commands(reader, records, report))
     _guard(report, lambda: _check_unreferenced(reader, records, report))
     _guard(report, lambda: _check_checksums(reader, report))
+    _guard(report, lambda: _check_card(reader, report))
     return report
 
 
@@ -430,3 +433,25 @@ def _check_checksums(reader: DatasetReader, report: ValidationReport) -> None:
         for rel in [layout.STATS_PATH, layout.TASKS_PATH, *scenes]:
             if rel not in recorded:
                 report.problems.append(f"{reader.root / rel}: no checksum recorded in {layout.INFO_PATH}")
+
+
+def _check_card(reader: DatasetReader, report: ValidationReport) -> None:
+    """The dataset card (``README.md``, :mod:`mgdata.record.card`) is a Hub card and the one mgdata renders
+    for the dataset as it is now; a dataset written before cards (none) gets a note."""
+    where, path = reader.root / layout.CARD_PATH, reader.files.path(layout.CARD_PATH)
+    if not path.is_file():
+        report.notes.append(f"{where}: no dataset card (written before mgdata wrote cards); write one with: "
+                            f"mgdata card {reader.root}")
+        return
+    fix = f"rewrite it with: mgdata card {reader.root}"
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        report.problems.append(f"{where}: not UTF-8 text; {fix}")
+        return
+    problem = card_problem(text)
+    if problem is not None:
+        report.problems.append(f"{where}: not a Hugging Face dataset card ({problem}); {fix}")
+    elif text != card_of(reader):
+        report.problems.append(f"{where}: differs from the card of the dataset as it is now (edited by hand, "
+                               f"or left by an interrupted write); {fix}")

@@ -35,8 +35,10 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from mgdata.atomic import write_text_atomic
 from mgdata.errors import DatasetError
 from mgdata.record import layout
+from mgdata.record.card import reader_tally, render_card
 from mgdata.record.commit import sha256_file
 from mgdata.record.episode import DatasetSchema
 from mgdata.record.episodes import HISTOGRAM_PREFIX, SCENE_COLUMN
@@ -61,6 +63,8 @@ class ViewSpec:
         environment_state: add ``observation.environment_state`` (v3.0 views only).
         safety: keep the per-frame labels, DFA states and violation flags (engagement and success stay in
             every view).
+        name: the export format (:data:`FORMATS`), recorded as ``mgdata.exported_as`` in the view's
+            ``info.json`` and named by its card.
     """
 
     version: str
@@ -70,6 +74,7 @@ class ViewSpec:
     physics: bool = False
     environment_state: bool = False
     safety: bool = True
+    name: str = ""
 
     def key(self, source: str) -> str | None:
         """The output key of a source feature key, ``None`` if the view drops it."""
@@ -104,22 +109,22 @@ def view_for(fmt: str, schema: DatasetSchema, *, overview: str | None = None, wr
     if fmt not in FORMATS:
         raise DatasetError(f"export format {fmt!r} is unknown; expected one of {', '.join(FORMATS)}")
     if fmt == "state":
-        return ViewSpec("v3.0", {}, environment_state=True, safety=False)
+        return ViewSpec("v3.0", {}, environment_state=True, safety=False, name=fmt)
     if fmt in ("pi0", "smolvla"):
         over, wri = _pick(schema, overview, "overview", False), _pick(schema, wrist, "wrist", True)
         if over == wri:
             raise DatasetError(f"the overview and wrist cameras are both {over!r}")
         if fmt == "pi0":
             return ViewSpec("v2.1", {over: "image", wri: "wrist_image"},
-                            {layout.STATE: "state", layout.ACTION: "actions"})
-        return ViewSpec("v3.0", {over: layout.video_key("top"), wri: layout.video_key("wrist")})
+                            {layout.STATE: "state", layout.ACTION: "actions"}, name=fmt)
+        return ViewSpec("v3.0", {over: layout.video_key("top"), wri: layout.video_key("wrist")}, name=fmt)
     chosen = cameras or schema.cameras
     unknown = [c for c in chosen if c not in schema.cameras]
     if unknown:
         raise DatasetError(f"--cameras {unknown} are not cameras of this dataset "
                            f"({', '.join(schema.cameras)})")
     return ViewSpec("v2.1", {c: layout.video_key(c) for c in chosen}, modality=fmt == "groot",
-                    physics=fmt == "v2.1")
+                    physics=fmt == "v2.1", name=fmt)
 
 
 def renamed_features(reader: DatasetReader, view: ViewSpec) -> dict:
@@ -179,7 +184,8 @@ def _insert_after(features: dict, after: str, key: str, value: dict) -> dict:
 
 
 def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
-    """A v3.0 dataset with the view's cameras and keys (files copied or re-keyed, never re-encoded)."""
+    """A v3.0 dataset with the view's cameras and keys (files copied or re-keyed, never re-encoded), and
+    its own card (:mod:`mgdata.record.card`)."""
     from mgdata.record.environment_view import EnvironmentStates
 
     records = reader.records()
@@ -215,5 +221,7 @@ def write_v30_view(reader: DatasetReader, out: Path, view: ViewSpec) -> None:
         features = _insert_after(features, layout.STATE, FEATURE, env.feature())
     target(layout.STATS_PATH).write_text(dump_json(stats))
     info = dict(reader.info, features=features)
-    info["mgdata"] = dict(info["mgdata"], sha256={rel: sha256_file(out / rel) for rel in sorted(written)})
+    info["mgdata"] = dict(info["mgdata"], exported_as=view.name,
+                          sha256={rel: sha256_file(out / rel) for rel in sorted(written)})
     (out / layout.INFO_PATH).write_text(dump_json(info))
+    write_text_atomic(out / layout.CARD_PATH, render_card(info, reader.tasks, reader_tally(reader)))

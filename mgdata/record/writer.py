@@ -3,8 +3,9 @@
 Episodes are appended whole: each is staged (encoded while its frames arrive, see
 :mod:`mgdata.record.staging`), then :meth:`DatasetWriter.append_staged` copies its video packets into each
 camera's current mp4, appends its rows to the current data file, adds its row to the episodes table and
-rewrites tasks, stats and ``info.json`` (and, the first time a base task appears, adds its compiled scene
-to the last scenes file, :mod:`mgdata.record.scenes`) — all in one
+rewrites tasks, stats, ``info.json`` and the dataset card ``README.md`` (:mod:`mgdata.record.card`; and, the
+first time a base task appears, adds its compiled scene to the last scenes file, :mod:`mgdata.record.scenes`)
+— all in one
 :class:`~mgdata.record.commit.Transaction`, so a killed process leaves the dataset exactly as it was after
 the last complete episode. Files roll over at LeRobot's size limits (data 100 MB, video 200 MB), for video
 after ``video_file_seconds``, for data and episodes files after ``episodes_per_file`` episodes and for
@@ -35,6 +36,7 @@ import pyarrow.parquet as pq
 from mgdata.errors import DatasetError
 from mgdata.interrupts import sigint_deferred
 from mgdata.record import layout
+from mgdata.record.card import EpisodeTally, render_card
 from mgdata.record.commit import Transaction, WriterLock, recover, sha256_file, work_dir
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, Frame
 from mgdata.record.episodes import (
@@ -83,6 +85,7 @@ class DatasetWriter:
         self._numeric: dict[str, FeatureStats] = {}  # dataset stats of the numeric features (merged)
         self._hist_sum = {layout.video_key(c): np.zeros((3, 256), np.int64) for c in self.schema.cameras}
         self._episodes_table: pa.Table | None = None
+        self._tally = EpisodeTally()  # what the card says about the episodes
         self._scenes = SceneAppender(int(info["mgdata"].get("scenes_per_file") or layout.SCENES_PER_FILE),
                                      int(info["chunks_size"]))
         self._stager: EpisodeStager | None = None
@@ -139,6 +142,7 @@ class DatasetWriter:
                 raise DatasetError(f"schema does not survive info.json: {schema} vs {writer.schema}")
             tx = Transaction(root)
             tx.path(layout.INFO_PATH).write_text(dump_json(info))
+            _write_card(tx, info, [], writer._tally)
             tx.commit()
         except BaseException:
             lock.release()
@@ -203,6 +207,7 @@ class DatasetWriter:
         """Rebuild the in-memory state (records, tasks, stats inputs) from the committed files."""
         reader = DatasetReader(self.root)
         self._records, self._tasks = reader.records(), list(reader.tasks)
+        self._tally = EpisodeTally.of(r.meta for r in self._records)
         self._scenes = SceneAppender.load(reader.scenes(), self._scenes.per_file, self._scenes.chunks_size)
         if self._records:
             last = read_parquet(self.root / layout.episodes_path(self._records[-1].meta_file))
@@ -397,7 +402,9 @@ class DatasetWriter:
         if scenes is not self._scenes:  # a dataset written before chunked scenes learns its file size
             new_info["mgdata"]["scenes_per_file"] = scenes.per_file
         tx.path(layout.INFO_PATH).write_text(dump_json(new_info))
-        return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes
+        tally = self._tally.plus(staged.meta)
+        _write_card(tx, new_info, tasks, tally)  # after the checksums: the card is derived, not recorded
+        return record, tasks, numeric, staged.histograms, ep_table, new_info, scenes, tally
 
     def _episodes_in_data_file(self) -> int:
         """Episodes in the current (last) data file."""
@@ -423,7 +430,8 @@ class DatasetWriter:
             self._apply(*state)
 
     def _apply(self, record: EpisodeRecord, tasks: list[str], numeric: dict[str, FeatureStats],
-               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: SceneAppender) -> None:
+               hists: dict[str, np.ndarray], ep_table: pa.Table, info: dict, scenes: SceneAppender,
+               tally: EpisodeTally) -> None:
         self._records.append(record)
         self._tasks = tasks
         self._numeric = numeric
@@ -432,18 +440,26 @@ class DatasetWriter:
         self._episodes_table = ep_table
         self._info = info
         self._scenes = scenes
+        self._tally = tally
 
     # --- closing -----------------------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Drop an unfinished episode, write pending info (attempts), release the dataset."""
+        """Drop an unfinished episode, write pending info (attempts) and bring the card up to date (a
+        dataset written before cards gets one), release the dataset."""
         if self._lock is None:
             return
         self.discard_episode()
-        on_disk = read_info(self.root / layout.INFO_PATH)
-        if on_disk != self._info and not self._stale:
+        new_info = read_info(self.root / layout.INFO_PATH) != self._info
+        card = self.root / layout.CARD_PATH
+        current = render_card(self._info, self._tasks, self._tally)
+        new_card = not card.is_file() or card.read_bytes() != current.encode("utf-8")
+        if (new_info or new_card) and not self._stale:
             tx = Transaction(self.root)
-            tx.path(layout.INFO_PATH).write_text(dump_json(self._info))
+            if new_info:
+                tx.path(layout.INFO_PATH).write_text(dump_json(self._info))
+            if new_card:
+                tx.path(layout.CARD_PATH).write_text(current, encoding="utf-8")
             with sigint_deferred():
                 tx.commit()
         self._lock.release()
@@ -460,6 +476,11 @@ class DatasetWriter:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def _write_card(tx: Transaction, info: dict, tasks: list[str], tally: EpisodeTally) -> None:
+    """The dataset card of ``info``, ``tasks`` and ``tally`` into ``tx`` (:mod:`mgdata.record.card`)."""
+    tx.path(layout.CARD_PATH).write_text(render_card(info, tasks, tally), encoding="utf-8")
 
 
 def _merged(numeric: dict[str, FeatureStats], episode: Mapping[str, FeatureStats],

@@ -1,6 +1,6 @@
 """Plant inconsistencies in a dataset as a careful forger would: change a column or a metadata field, then
 bring everything derived from it up to date (per-episode and dataset stats, the SHA-256 sums in
-``info.json``), so that only the safety audit can notice."""
+``info.json``, the dataset card), so that only the safety audit can notice."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from mgdata.record import layout
+from mgdata.record.card import write_card
 from mgdata.record.commit import sha256_file
 from mgdata.record.metadata import meta_to_columns
 from mgdata.record.reader import DatasetReader
@@ -27,6 +28,7 @@ def _rehash(root: Path, *rels: str) -> None:
     for rel in rels:
         info["mgdata"]["sha256"][rel] = sha256_file(root / rel)
     info_path.write_text(json.dumps(info, indent=4))
+    write_card(root)
 
 
 def _edit_episode_row(root: Path, episode: int, change: Callable[[dict[str, Any]], None]) -> str:

@@ -63,12 +63,17 @@ def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_same_settings_reproduce_the_source_byte_for_byte(source: Path, tmp_path: Path) -> None:
     """Rendering from the stored states draws what the live scene drew: with the source's cameras, size
-    and codec the new dataset is the source, file for file (only info.json records where it came from)."""
+    and codec the new dataset is the source, file for file (only info.json and the card, README.md, say that
+    it was rendered)."""
     out = rerender(RenderJob(source, tmp_path / "same")).out
     ours, theirs = tree_digest(out), tree_digest(source)
-    info = layout.INFO_PATH
-    assert {k: v for k, v in ours.items() if k != info} == {k: v for k, v in theirs.items() if k != info}
+    told = (layout.INFO_PATH, layout.CARD_PATH)
+    assert {k: v for k, v in ours.items() if k not in told} == \
+        {k: v for k, v in theirs.items() if k not in told}
     assert DatasetReader(out).info["mgdata"]["rendered_from"]["source"] == str(source.resolve())
+    card = (out / layout.CARD_PATH).read_text(encoding="utf-8")
+    assert "Re-rendered by `mgdata render` from the stored physics states" in card
+    assert str(source.resolve()) not in card  # a card is the same wherever the dataset lives
 
 
 def test_224_with_two_cameras_carries_everything_but_the_pictures(source: Path, tmp_path: Path) -> None:
