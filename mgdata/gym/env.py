@@ -109,7 +109,7 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
         self._cache = ScenarioCache(loaded, scenarios)
         self._horizon = horizon
         self._records = Path(records) if records is not None else None
-        self._recorded = False
+        self._record_to: Path | None = None  # where this episode's record goes (explicitly started ones)
         self._session: RolloutSession | None = None
         self._rig: CameraRig | None = None
         self._render_rig: CameraRig | None = None
@@ -139,8 +139,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
         super().reset(seed=seed)
-        given = dict(options or {})
-        options = dict(given)
+        explicit = seed is not None or bool(options)
+        options = dict(options or {})
         n = len(self.tasks)
         index = seed if seed is not None else self._next
         task, base = self.tasks[index % n], index // n
@@ -149,11 +149,12 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise ValueError(f"reset options {sorted(options)}: expected 'task' and/or 'seed'")
         self._next = index + 1
         self._open(task, base)
-        self._recorded = self._records is not None and (seed is not None or bool(given))
-        if self._live.environment_state().size != self._env_size:
+        self._record_to = self._records if explicit else None
+        obs = self._observation()
+        if obs["environment_state"].size != self._env_size:
             raise RecipeError(f"{self._live.scenario}: its environment state has another size than the "
                               f"family's first task ({self._env_size}); use one environment per layout")
-        return self._observation(), self._info(0.0)
+        return obs, self._info(0.0)
 
     def step(self, action: np.ndarray) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         session = self._live
@@ -174,8 +175,8 @@ class ScenarioEnv(gym.Env[dict[str, Any], np.ndarray]):
         info = self._info(cost)
         if end is not None:
             info["record"] = session.record()
-            if self._recorded and self._records is not None:
-                _append_line(self._records, json.dumps(info["record"], sort_keys=True))
+            if self._record_to is not None:
+                _append_line(self._record_to, json.dumps(info["record"], sort_keys=True))
         return self._observation(), reward, success, end in ("timeout", "sim_diverged"), info
 
     def render(self) -> np.ndarray | None:
