@@ -393,7 +393,7 @@ def _loop(job: GenerateJob, cursor: DrawCursor, quota: Quota, config: WorkerConf
                         shutil.rmtree(done.staged, ignore_errors=True)
                     submitted -= 1
                     continue
-                t0 = time.perf_counter()
+                t0 = time.process_time()
                 with sigint_deferred():  # a commit and the cursor recording it happen together or not at all
                     # the count goes into the commit itself, so a kill -9 before the state file is saved
                     # loses no kept attempt from it (resume takes the larger count)
@@ -414,7 +414,7 @@ def _loop(job: GenerateJob, cursor: DrawCursor, quota: Quota, config: WorkerConf
                     state.save(state_path)
                 if result.kept:
                     quota.kept[result.task_id] += 1
-                summary.add(result, time.perf_counter() - t0)
+                summary.add(result, time.process_time() - t0)
                 summary.wall = time.perf_counter() - start
                 if on_attempt is not None:
                     on_attempt(summary)

@@ -32,7 +32,8 @@ class RunSummary:
         target: kept episodes wanted in the dataset; ``kept_before``: how many it had when the run began.
         kept, attempts: this run's kept episodes and attempts (kept or not).
         stages: failure stage -> count (this run).
-        timings: seconds per phase, summed over attempts (worker time, not wall time).
+        timings: CPU seconds per phase, summed over attempts (the workers' and the committing process's CPU
+            time, not wall time).
         wall: wall-clock seconds of the run.
         stopped: why the run ended (``target reached``, ``max attempts``, ``interrupted``).
     """
@@ -128,7 +129,7 @@ def summary_table(summary: RunSummary) -> Table:
     table.add_section()
     for phase in PHASES:
         sec = getattr(summary.timings, phase)
-        table.add_row(f"time: {phase}", f"{sec:.1f} s", f"{sec / total:.0%}")
+        table.add_row(f"CPU: {phase}", f"{sec:.1f} s", f"{sec / total:.0%}")
     table.add_row("wall time", _fmt_time(summary.wall), "")
     return table
 
