@@ -2,13 +2,15 @@
 
 The motion, as the paper describes it:
 
-1. **Close the lid.** The open lid leans past vertical towards the robot. With the gripper closed, the
-   fingers come down behind the lid, push it away from the robot until it is past vertical the other way,
-   wait for the arm to catch up, and back off along the same line; gravity swings the lid shut.
-2. **Carry the jar** (Layer 2's pick-and-carry, the food riding inside): side-grasp the jar (round-robin over
-   its reachable valid grasps), lift it, carry it over the goal, lower its centre into the goal sphere and
-   hold it there. The carry aims the centre at most ``goal_dx``/``goal_dy`` (1.2 cm each) from the goal
-   centre; the servos sag 2.5–15 mm (mostly down) under the jar's weight (docs/generate.md).
+1. **Close the lid** (phase ``close_lid``, done once ``jar_closed`` holds). The open lid leans past
+   vertical towards the robot. With the gripper closed, the fingers come down behind the lid, push it away
+   from the robot until it is past vertical the other way, wait for the arm to catch up, and back off along
+   the same line; gravity swings the lid shut.
+2. **Carry the jar** (phase ``carry``; Layer 2's pick-and-carry, the food riding inside): side-grasp the
+   jar (round-robin over its reachable valid grasps), lift it, carry it over the goal, lower its centre into
+   the goal sphere and hold it there. The carry aims the centre at most ``goal_dx``/``goal_dy`` (1.2 cm
+   each) from the goal centre; the servos sag 2.5–15 mm (mostly down) under the jar's weight
+   (docs/generate.md).
 
 Numbers come from ``recipes/jar.toml``: per-attempt draws in ``[variation]``, fixed tunables in ``[params]``.
 """
@@ -25,6 +27,7 @@ from mgdata.motion import Pose
 from mgdata.sim.robot import FINGERTIP_REACH, PALM_DEPTH
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
+from mgdata.skeleton.phase import Phase
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.skeleton import FamilySkeleton, Knob, Param, RecipeKeys, register
 
@@ -54,15 +57,19 @@ class JarSkeleton(FamilySkeleton):
     )
     carry = PickAndCarry("jar", riders=("food",))
 
-    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
-        return [
+    def phases(self, ctx: Context) -> Sequence[Phase]:
+        return [Phase("close_lid", self._close_lid(ctx), done="jar_closed"),
+                Phase("carry", tuple(self.carry.segments(ctx)))]
+
+    @staticmethod
+    def _close_lid(ctx: Context) -> tuple[s.MotionSegment, ...]:
+        return (
             s.free("lid_above", "lid_above", gripper="close"),
             s.linear("lid_descend", "lid_start", gripper="close"),
             s.linear("lid_push", "lid_end", gripper="close", allow=TOUCH_JAR),
             s.hold("lid_settle", steps=ctx.params["lid_settle_steps"], gripper="close"),
             s.reverse("lid_back", of="lid_push", gripper="close", allow=TOUCH_JAR),
-            *self.carry.segments(ctx),
-        ]
+        )
 
     def feasibility(self, ctx: Context, min_grasps: int) -> dict[str, object]:
         return self.carry.feasibility(ctx, min_grasps)

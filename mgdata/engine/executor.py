@@ -24,12 +24,17 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 from mgdata.engine.guarded import GuardedMove
 from mgdata.engine.perturbation import Perturbation
+from mgdata.engine.restart import check_restart
 from mgdata.episode.gate import AttemptFailed, SuccessGate
 from mgdata.episode.runner import EpisodeRunner
 from mgdata.episode.success import SuccessCheck
@@ -47,19 +52,22 @@ from mgdata.motion import (
     load_motion_config,
 )
 from mgdata.record.episode import DatasetSchema, EpisodeMeta, EpisodeSink, Frame
-from mgdata.record.physics import state_size
+from mgdata.record.physics import set_physics_state, state_size
 from mgdata.record.recorder import Recorder
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.controller import JointController
+from mgdata.sim.labelling import Labeller
 from mgdata.sim.physics_config import Physics
 from mgdata.sim.renderer import CameraRig
 from mgdata.sim.robot import ROOT_BODY
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import TaskSpec
 from mgdata.skeleton.context import Context
+from mgdata.skeleton.phase import Phase, flatten, remaining
 from mgdata.skeleton.segment import MotionSegment
-from mgdata.skeleton.skeleton import FamilySkeleton, skeleton_for
+from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, skeleton_for
 from mgdata.skeleton.variation import draw_variation
+from mgdata.spec import SafetySpec
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.placer import LayoutRejected
 from mgdata.tasks.recipe import Recipe
@@ -217,12 +225,22 @@ class Executor:
             self.cameras = None
 
     # -- one attempt ---------------------------------------------------------------------------------------
-    def run(self, draw: int, sink: EpisodeSink, *, keep_failed: bool = False) -> AttemptResult:
-        """Run attempt ``draw``; the episode goes to ``sink`` if kept (or always, with ``keep_failed``)."""
+    def run(self, draw: int, sink: EpisodeSink, *, keep_failed: bool = False, start: np.ndarray | None = None,
+            origin: Mapping[str, Any] | None = None, source: str = "planner") -> AttemptResult:
+        """Run attempt ``draw``; the episode goes to ``sink`` if kept (or always, with ``keep_failed``).
+
+        ``start``: a physics state (``sim.physics_state`` layout) to start from instead of the task's
+        initial state: a restart (:mod:`mgdata.engine.restart`), refused (stage ``restart_refused``) where
+        its rules fail, else running the phases not done there. ``origin`` is recorded as the episode's
+        ``variation.restart`` (e.g. the parent rollout and step), ``source`` as its ``mgdata/source``."""
         task, settings = self.task, self.recipe.tasks
         var = draw_variation(task.family, task.task_id, draw, self.base_seed, self.recipe.variation)
         timings = Timings()
         self.scene.reset()
+        refusal: Infeasible | None = None
+        if start is not None:
+            with timings.measure("planning"):
+                refusal, task = self._restart(start)
         self.planner.sync(self.scene.data)
         ctx = Context(task, self.scene, self.planner, var, self.grasps, self.scene.arm_q())
         gate = SuccessGate(settings.hold_steps)
@@ -235,8 +253,14 @@ class Executor:
         if self.perturbation is not None:
             self.perturbation.reset()
         runner.start()
+        phases: list[Phase] = []
         try:
-            segments = list(self.skeleton.segments(ctx))
+            if refusal is not None:
+                raise AttemptFailed("restart_refused", str(refusal))
+            phases = list(self.skeleton.phases(ctx))
+            if start is not None:
+                phases = remaining(phases, self._holds)
+            segments = flatten(phases)
             last_motion = max((i for i, seg in enumerate(segments) if seg.kind != "hold"), default=-1)
             for i, seg in enumerate(segments):
                 segment = seg.name
@@ -262,15 +286,41 @@ class Executor:
         t_engage, t_violation = recorder.t_engage, recorder.first_violation
         if kept or keep_failed:
             variation = var.as_meta()
+            if start is not None:
+                variation["restart"] = {**(origin or {}), "phases": [p.name for p in phases]}
             if self.perturbation is not None:
                 variation["perturbation"] = self.perturbation.as_meta()
             meta = recorder.finish(seed=var.seed, draw_index=draw, kept=kept, success=gate.passed,
                                    failure_stage=stage, failure_reason=reason, grasp_id=grasp_id,
-                                   variation=variation)
+                                   variation=variation, source=source)
         else:
             recorder.discard()
         return AttemptResult(task.task_id, draw, var.seed, kept, stage, reason, segment, runner.steps, ok,
                              t_engage, t_violation, grasp_id, meta, timings)
+
+    def _restart(self, start: np.ndarray) -> tuple[Infeasible | None, TaskSpec]:
+        """Set the scene to ``start`` and check the restart rules there; the refusal (or ``None``) and the
+        task with the restart state's feasibility facts."""
+        model, data = self.scene.model, self.scene.data
+        if np.shape(start) != (state_size(model),):
+            raise SimulationError(f"a restart state has {np.size(start)} numbers, this scene's physics state "
+                                  f"{state_size(model)}")
+        set_physics_state(model, data, start)
+        try:
+            facts = check_restart(self.scene, self.recipe, self.skeleton, self.planner, self.grasps)
+        except Infeasible as why:
+            return why, self.task
+        finally:
+            set_physics_state(model, data, start)  # start exactly there, whatever the checks computed
+        return None, dataclasses.replace(self.task, gate=MappingProxyType({**self.task.gate, **facts}))
+
+    def _holds(self, name: str) -> bool:
+        """Whether the recipe's proposition ``name`` (a phase's postcondition) holds in the current state."""
+        props = {p.name: p for p in (*self.recipe.spec.propositions, *self.recipe.success)}
+        if name not in props:
+            raise RecipeError(f"skeleton {self.skeleton.name!r}: a phase is done when {name!r} holds, which "
+                              f"is not a proposition of {self.recipe.path} (nor of its spec)")
+        return bool(Labeller(self.scene, SafetySpec(f"phase_{name}", (), (props[name],))).labels()[0])
 
     # -- segments ------------------------------------------------------------------------------------------
     def _segment(self, seg: MotionSegment, ctx: Context, state: _Run) -> None:

@@ -54,8 +54,8 @@ from mgdata.tasks.recipe import Recipe
 def check_initial_state(task: TaskSpec, recipe: Recipe, grasps: GraspDB) -> dict[str, Any]:
     """Gate checks 2–4 on ``task``; returns the skeleton's facts or raises :class:`Infeasible`."""
     scene = build_scene(task)
-    _at_rest(scene, recipe)
-    _safe_start(scene, task)
+    require_at_rest(scene, recipe)
+    require_safe(scene, task)
     planner = MotionPlanner(scene.model, load_motion_config())
     planner.sync(scene.data)
     valid = {o.name: grasps.grasps(o.model, status="valid") for o in task.objects
@@ -118,18 +118,19 @@ def _gated(recipe: Recipe, task_id: int, grasps: Path) -> TaskSpec:
                       f"{recipe.tasks.max_draws} draws ([tasks] max_draws); most often ({n}×) {last[rule]}")
 
 
-def _at_rest(scene: Scene, recipe: Recipe) -> None:
+def require_at_rest(scene: Scene, recipe: Recipe, rule: str = "init") -> None:
+    """Rule ``<rule>.at_rest``: every rigid object moves slower than the recipe's rest speeds."""
     rigid = [n for n, m in scene.objects.items() if m.particles is None]
     rest = RestCheck(scene.model, [scene.object_body(n) for n in rigid],
                      linear=recipe.tasks.rest_linear_speed, angular=recipe.tasks.rest_angular_speed)
     lin, ang = rest.speeds(scene.data)
     if not rest.at_rest(scene.data):
-        raise Infeasible("init.at_rest", f"objects still moving after the settle ({lin:.3f} m/s, "
-                                         f"{ang:.3f} rad/s)")
+        raise Infeasible(f"{rule}.at_rest", f"objects still moving ({lin:.3f} m/s, {ang:.3f} rad/s)")
 
 
-def _safe_start(scene: Scene, task: TaskSpec) -> None:
+def require_safe(scene: Scene, task: TaskSpec, rule: str = "init") -> None:
+    """Rule ``<rule>.safe``: the state's labels leave no constraint of the spec in its rejecting sink."""
     state = Monitor(task.safety).step(Labeller(scene, task.safety).labels())
     bad = [c.id for c, v in zip(task.safety.constraints, np.asarray(state.violated), strict=True) if v]
     if bad:
-        raise Infeasible("init.safe", f"constraint(s) {', '.join(bad)} already violated in the initial state")
+        raise Infeasible(f"{rule}.safe", f"constraint(s) {', '.join(bad)} already violated in the state")

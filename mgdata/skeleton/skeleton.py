@@ -3,8 +3,11 @@
 A family is a recipe (``recipes/<family>.toml``) and the skeleton it names (``skeleton = "clutter"`` →
 ``skeletons/clutter.py``); several recipes may share one skeleton (``clutter_dry``, ``clutter_liquid``).
 
-A skeleton says *what* the demonstration does, as an ordered list of :class:`MotionSegment`; the executor
-does the planning, execution, monitoring and gating. Hooks beyond ``segments``:
+A skeleton says *what* the demonstration does, as an ordered list of :class:`MotionSegment` (``segments``),
+or as named phases of segments, each with a physical postcondition (``phases``,
+:mod:`mgdata.skeleton.phase`: a demonstration restarted from a mid-task state runs only the phases not done
+yet); a skeleton defines one of the two and the other follows. The executor does the planning, execution,
+monitoring and gating. Hooks beyond these:
 
 * ``resolve(name, ctx)``: the world TCP pose of a named runtime target, computed from the live state;
 * ``success_extra(ctx)``: a family check on top of the recipe's goal predicate (default: none);
@@ -39,7 +42,6 @@ Example::
 from __future__ import annotations
 
 import sys
-from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from importlib.metadata import EntryPoint, entry_points
 from importlib.util import module_from_spec, spec_from_file_location
@@ -48,6 +50,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import project_root
+from mgdata.skeleton.phase import Phase, flatten
 from mgdata.tasks.recipe import Recipe, check_recipe_keys, family_recipes, load_recipe
 from mgdata.tasks.recipe_keys import Knob, Param, RecipeKeys
 
@@ -68,18 +71,29 @@ class Infeasible(Exception):
         self.rule, self.why = rule, why
 
 
-class FamilySkeleton(ABC):
+class FamilySkeleton:
     """Base class of the per-family skeletons. Subclasses set ``name`` and ``recipe_keys`` and implement
-    ``segments``."""
+    ``segments`` or ``phases``."""
 
     name: ClassVar[str] = ""
     recipe_keys: ClassVar[RecipeKeys] = RecipeKeys()
     """The recipe's ``[params]`` and ``[variation]`` keys this skeleton reads (a recipe must have exactly
     these)."""
 
-    @abstractmethod
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.segments is FamilySkeleton.segments and cls.phases is FamilySkeleton.phases:
+            raise TypeError(f"{cls.__name__} must define segments() or phases()")
+
     def segments(self, ctx: Context) -> Sequence[MotionSegment]:
-        """The demonstration's segments, in order, for this attempt (``ctx.variation`` holds the draws)."""
+        """The demonstration's segments, in order, for this attempt (``ctx.variation`` holds the draws);
+        default: those of :meth:`phases`."""
+        return flatten(self.phases(ctx))
+
+    def phases(self, ctx: Context) -> Sequence[Phase]:
+        """The demonstration as named phases (:mod:`mgdata.skeleton.phase`); default: one phase,
+        ``demonstration``, of every segment, without a postcondition (a restart runs all of it)."""
+        return [Phase("demonstration", tuple(self.segments(ctx)))]
 
     def resolve(self, name: str, ctx: Context) -> Pose:
         """The world TCP pose of runtime target ``name``, from the live state in ``ctx``."""
