@@ -257,10 +257,11 @@ class Executor:
         try:
             if refusal is not None:
                 raise AttemptFailed("restart_refused", str(refusal))
-            phases = list(self.skeleton.phases(ctx))
-            if start is not None:
-                phases = remaining(phases, self._holds)
-            segments = flatten(phases)
+            if start is None:
+                segments = list(self.skeleton.segments(ctx))
+            else:
+                phases = remaining(self.skeleton.phases(ctx), self._holds)
+                segments = flatten(phases)
             last_motion = max((i for i, seg in enumerate(segments) if seg.kind != "hold"), default=-1)
             for i, seg in enumerate(segments):
                 segment = seg.name
