@@ -60,6 +60,10 @@ def register(app: typer.Typer) -> None:
             help="Rollout processes (same results for any count).")] = 1,
         video: Annotated[bool, typer.Option(
             help="Write a video per rollout with the monitor overlay.")] = False,
+        record: Annotated[bool, typer.Option(
+            help="Record every rollout (physics states, safety columns, outcome) as an episode of the "
+            "LeRobot dataset OUT/rollouts/<family>, to preview, restore or correct (mgdata corrections)."
+        )] = False,
         out: Annotated[Path, typer.Option(
             help="Results folder (rollouts.jsonl; resumable).")] = Path("results"),
     ) -> None:
@@ -98,7 +102,8 @@ def register(app: typer.Typer) -> None:
         check_url(policy)
         chosen = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras else None
         settings = LoopSettings(policy, convention, chosen, steps, wait_s, config.connect_timeout_s,
-                                out / "videos" if video else None, horizon, ensemble)
+                                out / "videos" if video else None, horizon, ensemble,
+                                out / "rollouts" if record else None)
         job = EvalJob(scenarios, settings, _ints(seeds, "--seeds"), out,
                       tuple(family) if family else None, tuple(condition) if condition else None, workers)
         first = plan(job)[0]  # bad scenario folders and filters fail before the server is asked
@@ -130,6 +135,9 @@ def register(app: typer.Typer) -> None:
 
             page = write_results_page(load_records(summary.results), out / "results.html")
             console.print(f"results page: {page}")
+        if record:
+            console.print(f"recorded rollouts: {out / 'rollouts'}/<family> (mgdata corrections "
+                          f"{out / 'rollouts'}/<family> --out …)")
         console.print(f"metrics: mgdata metrics {summary.results} --by family,condition")
 
     serve = typer.Typer(help="Serve a reference policy over openpi's websocket protocol.",

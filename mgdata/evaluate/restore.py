@@ -76,6 +76,21 @@ def _spec(meta: dict[str, Any], recipe: Recipe, where: str) -> SafetySpec:
     return recipe.spec if same else stored
 
 
+def scenario_spec(folder: Path) -> SafetySpec:
+    """The safety spec a rollout of the scenario in ``folder`` is monitored with (its ``scenario.json``'s,
+    in its recipe's column order), without loading its scene."""
+    import json
+
+    from mgdata.skeleton.skeleton import load_family_recipe
+
+    where = Path(folder) / "scenario.json"
+    try:
+        meta = json.loads(where.read_text(encoding="utf-8"))
+        return _spec(meta, load_family_recipe(meta["family"]), str(where))
+    except (OSError, json.JSONDecodeError, KeyError, TypeError) as err:
+        raise DatasetError(f"{where}: not a scenario.json this version reads ({err!r})") from None
+
+
 def restore_scenario(folder: Path, recipe: Recipe | None = None) -> RestoredScenario:
     """Load the scenario in ``folder`` (see the module docstring); ``recipe`` defaults to its family's.
 

@@ -75,7 +75,8 @@ class LoopSettings:
     actions executed per query, timeouts (s), where to write rollout videos (``None``: none), and a horizon
     that replaces the scenarios' own (``None``: theirs; for smoke runs, the record says which), and the
     temporal-ensembling coefficient (``None``: none; otherwise the policy is queried at every step and
-    ``chunk_steps`` is ignored, :mod:`mgdata.evaluate.ensemble`)."""
+    ``chunk_steps`` is ignored, :mod:`mgdata.evaluate.ensemble`), and where to stage each rollout's recorded
+    episode (``None``: not recorded; :mod:`mgdata.evaluate.recorded`)."""
 
     policy: str
     convention: str = "pi0"
@@ -86,6 +87,7 @@ class LoopSettings:
     video_dir: Path | None = None
     horizon: int | None = None
     ensemble: float | None = None
+    record_dir: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -116,7 +118,12 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     if cameras is None:
         cameras = default_cameras(settings.convention, available)
     check_cameras(settings.convention, cameras, available)
-    session = RolloutSession(restored, job.scenario, job.seed, settings.horizon)
+    sink = None
+    if settings.record_dir is not None:
+        from mgdata.evaluate.recorded import stager
+
+        sink = stager(settings.record_dir, video_name(job), scene)
+    session = RolloutSession(restored, job.scenario, job.seed, settings.horizon, sink)
     shown = cameras or (available or CAMERA_NAMES)[:1]  # a state-only policy's rollout video shows a camera
     rig = CameraRig(scene, shown, int(meta["image_size"])) if cameras or settings.video_dir else None
     video: list[dict[str, np.ndarray]] = []
@@ -156,6 +163,9 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
                         chunk = [ensemble.action(session.steps).astype(np.float32)]
                 session.step(chunk.pop(0))
         record = session.record()
+        frames = list(session.frames)
+        if sink is not None:
+            session.save(str(client.metadata.get("policy", "")))
     finally:
         session.close()
         if rig is not None:
@@ -163,8 +173,8 @@ def rollout(job: RolloutJob, settings: LoopSettings) -> RolloutResult:
     if settings.video_dir is not None:
         from mgdata.evaluate.video import write_rollout_video
 
-        write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, session.frames, scene, meta)
-    return RolloutResult(record, session.frames)
+        write_rollout_video(settings.video_dir / f"{video_name(job)}.mp4", video, frames, scene, meta)
+    return RolloutResult(record, frames)
 
 
 def video_name(job: RolloutJob) -> str:

@@ -7,6 +7,9 @@ and parallel, into ``<out>/rollouts.jsonl``.
   the next is counted; a rerun skips the (scenario, seed) pairs already there (a line torn by a kill is
   dropped and re-run). ``<out>/eval.json`` records the settings and the policy server's metadata frame; a
   rerun with others is refused (the server's URL may change).
+* **Recording** (``LoopSettings.record_dir``, ``mgdata eval --record``): each rollout's episode is staged
+  before its record is appended, and the staged episodes are appended in plan order to
+  ``<out>/rollouts/<family>`` when every rollout is in (:mod:`mgdata.evaluate.recorded`).
 * **Workers.** ``workers`` spawned processes each run whole rollouts (their own scene, renderer and
   connection). When every rollout is in, the file is rewritten in plan order, so it is byte-identical for
   any worker count (a record does not depend on wall time, order or which process ran it).
@@ -32,7 +35,7 @@ from typing import Any
 from mgdata.atomic import write_text_atomic
 from mgdata.errors import DatasetError, OutputError
 from mgdata.evaluate.client import PolicyClient
-from mgdata.evaluate.rollout import LoopSettings, RolloutJob, run_rollout
+from mgdata.evaluate.rollout import LoopSettings, RolloutJob, run_rollout, video_name
 from mgdata.lock import output_lock
 from mgdata.pool_worker import die_with_parent
 from mgdata.scenarios.store import read_manifest
@@ -89,6 +92,8 @@ def _settings_record(job: EvalJob, metadata: dict[str, Any]) -> dict[str, Any]:
             "chunk_steps": s.chunk_steps, "timeout_s": s.timeout_s, "horizon": s.horizon}
     if s.ensemble is not None:  # absent when off: results written before ensembling existed still resume
         loop["ensemble"] = s.ensemble
+    if s.record_dir is not None:  # likewise: a recorded run's every rollout must be recorded
+        loop["record"] = True
     return {"scenarios": str(job.scenarios), "loop": loop,
             "policy_metadata": json.loads(json.dumps(metadata, sort_keys=True, default=repr))}
 
@@ -175,6 +180,10 @@ def _run_eval(job: EvalJob, on_record: Callable[[dict[str, Any]], None] | None =
     records = [r for r in read_results(results) if (r["scenario"], r["seed"]) in order]
     records.sort(key=lambda r: order[(r["scenario"], r["seed"])])
     write_text_atomic(results, "".join(json.dumps(r, sort_keys=True) + "\n" for r in records))
+    if job.settings.record_dir is not None:
+        from mgdata.evaluate.recorded import append_staged
+
+        append_staged(job.settings.record_dir, [video_name(r) for r in rollouts], job.scenarios)
     return EvalSummary(len(rollouts), len(rollouts) - len(todo), len(todo), results)
 
 

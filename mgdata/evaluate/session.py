@@ -39,7 +39,7 @@ from mgdata.episode.success import SuccessCheck
 from mgdata.errors import MgdataError, SimulationError
 from mgdata.evaluate.restore import RestoredScenario
 from mgdata.ltl import MonitorState
-from mgdata.record.episode import Frame
+from mgdata.record.episode import EpisodeMeta, EpisodeSink, Frame
 from mgdata.record.recorder import Recorder
 from mgdata.sim import robot
 from mgdata.sim.controller import JointController
@@ -56,22 +56,30 @@ def rollout_seed(seed: int, scenario: str) -> int:
 
 class _Trace:
     """The recorder's sink: keeps the per-step frames (state, action, safety columns, physics state; no
-    images) for a rollout video."""
+    images) for a rollout video, and hands everything to ``sink`` too, if given (a recorded rollout's
+    staged episode, :mod:`mgdata.evaluate.recorded`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, sink: EpisodeSink | None = None) -> None:
         self.frames: list[Frame] = []
+        self.sink = sink
 
     def set_scene(self, mjb: bytes) -> None:
-        """The scene is the scenario's own stored model: nothing to keep."""
+        if self.sink is not None:
+            self.sink.set_scene(mjb)
 
     def add_frame(self, frame: Frame) -> None:
         self.frames.append(frame)
+        if self.sink is not None:
+            self.sink.add_frame(frame)
 
-    def end_episode(self, meta: Any) -> None:
-        """A rollout's record is written by its caller, not by the sink: nothing to do."""
+    def end_episode(self, meta: EpisodeMeta) -> None:
+        if self.sink is not None:
+            self.sink.end_episode(meta)
 
     def discard_episode(self) -> None:
-        """The frames stay until the rollout's video (if any) is written: nothing to drop."""
+        """The frames stay until the rollout's video (if any) is written; the sink drops its episode."""
+        if self.sink is not None:
+            self.sink.discard_episode()
 
 
 class RolloutSession:
@@ -91,13 +99,13 @@ class RolloutSession:
     """
 
     def __init__(self, restored: RestoredScenario, scenario: str, seed: int,
-                 horizon: int | None = None) -> None:
+                 horizon: int | None = None, sink: EpisodeSink | None = None) -> None:
         self.restored, self.scenario, self.seed = restored, scenario, seed
         self.episode_seed = rollout_seed(seed, scenario)
         scene, recipe = restored.scene, restored.recipe
         self.controller = JointController(scene)
         check = SuccessCheck(self.controller, recipe)
-        self._trace = _Trace()
+        self._trace = _Trace(sink)
         self.recorder = Recorder(scene, scene.task.safety, self._trace, None, lambda _: check())
         self.horizon = horizon or int(restored.meta["horizon"])
         self.runner = EpisodeRunner(self.controller, self.recorder, SuccessGate(recipe.tasks.hold_steps),
@@ -184,6 +192,20 @@ class RolloutSession:
             "t_success": self.t_success, "horizon": self.horizon, "steps": self.runner.steps, "end": self.end,
         }
 
+    def save(self, policy: str) -> EpisodeMeta:
+        """End the rollout's episode into the session's sink (a recorded rollout): the final observation
+        becomes its last frame, and its metadata says ``source = rollout``, the outcome and where it came
+        from (``variation.rollout``: scenario, seed, end, t_success, policy); ``kept`` is false, it being
+        no demonstration. Call once the rollout has ended."""
+        if self.end is None:
+            raise MgdataError("the rollout is still going on; save it once it has ended")
+        origin = {"scenario": self.scenario, "seed": self.seed, "end": self.end, "t_success": self.t_success,
+                  "policy": policy}
+        return self.recorder.finish(seed=self.episode_seed, draw_index=self.seed, kept=False,
+                                    success=self.end == "success", variation={"rollout": origin},
+                                    source="rollout")
+
     def close(self) -> None:
-        """Drop the episode in progress (the recorder's frames stay in :attr:`frames`)."""
-        self.recorder.discard()
+        """Drop the episode in progress, if any (the recorder's frames stay in :attr:`frames`)."""
+        if self.recorder.t >= 0:
+            self.recorder.discard()
