@@ -6,15 +6,14 @@ import json
 from pathlib import Path
 
 import mujoco
-import numpy as np
 
 from mgdata.evaluate.config import RandomConfig
 from mgdata.evaluate.policies import RandomPolicy, ReplayPolicy
 from mgdata.evaluate.rollout import LoopSettings
 from mgdata.evaluate.run import EvalJob, read_results, run_eval
-from mgdata.record.physics import STATE_SPEC
 from mgdata.record.reader import DatasetReader
 from mgdata.record.validate import validate_dataset
+from tests.helpers.rawdata import raw_step
 
 
 def test_recorded_rollouts_hold_the_records_and_restore_at_every_step(scenario_set: Path, demo: Path,
@@ -43,16 +42,9 @@ def test_recorded_rollouts_hold_the_records_and_restore_at_every_step(scenario_s
         # restored at step k (scene from meta/scenes, state k) and stepped with the next action's
         # stored controls, raw MuJoCo gives state k + 1 exactly
         model = mujoco.MjModel.from_binary_path("s.mjb", {"s.mjb": reader.scene_mjb(i)})
-        data, nxt = mujoco.MjData(model), mujoco.MjData(model)
         substeps = round(0.05 / model.opt.timestep)
         for k in range(ep.length - 1):
-            mujoco.mj_setState(model, data, ep.physics_state[k], STATE_SPEC)
-            mujoco.mj_setState(model, nxt, ep.physics_state[k + 1], STATE_SPEC)
-            data.ctrl[:] = nxt.ctrl
-            for _ in range(substeps):
-                mujoco.mj_step(model, data)
-            got = np.empty(mujoco.mj_stateSize(model, STATE_SPEC))
-            mujoco.mj_getState(model, data, got, STATE_SPEC)
+            got = raw_step(model, ep.physics_state[k], ep.physics_state[k + 1], substeps)
             assert got.tobytes() == ep.physics_state[k + 1].tobytes(), k
     report = validate_dataset(root)
     assert report.ok, report.problems

@@ -106,3 +106,20 @@ def inside_drawer(m: mujoco.MjModel, d: mujoco.MjData, obj: int, drawer: int, sl
     local = (world - d.xpos[drawer]) @ d.xmat[drawer].reshape(3, 3)
     ilo, ihi = drawer_interior(m, drawer)
     return bool(np.all((local >= ilo - slack) & (local <= ihi + slack)))
+
+
+def raw_step(model: mujoco.MjModel, state: np.ndarray, next_state: np.ndarray, substeps: int) -> np.ndarray:
+    """Plain MuJoCo, no mgdata code: from the stored ``state``, run ``substeps`` ``mj_step`` under the
+    controls stored with ``next_state``; the resulting state (``STATE_SPEC`` layout)."""
+    from mgdata.record.physics import STATE_SPEC
+
+    data, nxt = mujoco.MjData(model), mujoco.MjData(model)
+    mujoco.mj_setState(model, data, state, STATE_SPEC)
+    mujoco.mj_setState(model, nxt, next_state, STATE_SPEC)
+    data.ctrl[:] = nxt.ctrl
+    for _ in range(substeps):
+        mujoco.mj_step(model, data)
+    out = np.empty(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, out, STATE_SPEC)
+    return out
+

@@ -31,6 +31,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers.rawdata import raw_step
 from tests.helpers.repo import REPO
 
 CAMERAS, SIZE, STEPS = ("front", "wrist"), 64, 30
@@ -133,14 +134,9 @@ def test_the_stored_scene_alone_resimulates_with_plain_mujoco(recorded: Path) ->
     model = mujoco.MjModel.from_binary_path("scene.mjb", {"scene.mjb": reader.scene_mjb(1)})
     substeps = round(1.0 / reader.schema.fps / model.opt.timestep)
     ep = reader.episode(1)
-    data, nxt = mujoco.MjData(model), mujoco.MjData(model)
     for t in range(ep.length - 1):
-        mujoco.mj_setState(model, data, ep.physics_state[t], STATE_SPEC)
-        mujoco.mj_setState(model, nxt, ep.physics_state[t + 1], STATE_SPEC)
-        data.ctrl[:] = nxt.ctrl
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-        assert np.array_equal(physics_state(model, data), ep.physics_state[t + 1]), t
+        got = raw_step(model, ep.physics_state[t], ep.physics_state[t + 1], substeps)
+        assert np.array_equal(got, ep.physics_state[t + 1]), t
 
 
 def test_doc_example_restores_and_renders_frame_t(recorded: Path) -> None:
