@@ -34,10 +34,10 @@ VIDEO_FILE_SECONDS = 60.0
 # 1,000 costs what the one at episode 1 does).
 EPISODES_PER_FILE = 20
 # The compiled scenes are chunked too, for the same reason: appending a scene rewrites the current scenes
-# file, whose rows the writer holds zstd-packed and must unpack and compress again (~6 ms per jar scene held:
-# ~3 ms parquet's zstd of the 5.8 MB MJB delta, ~3 ms unpacking it; a whole scene ~35 ms). At 20 scenes per
-# file (~0.9 MB of deltas) the rewrite stays under ~0.15 s, a fifth of an episode's commit, whatever the
-# scene count (benchmarks/bench_append.py --scenes).
+# file. Its rows are zstd frames, which the writer holds and copies as they are, so the new scene's part of
+# a commit (its XOR delta, its frame, the rewrite) is ~16-20 ms whatever the scene count, at 20 scenes per
+# file (~0.9 MB of deltas) (benchmarks/bench_append.py --scenes 40: 85 ms before frames, when every held row
+# was decompressed and compressed again at each rewrite).
 SCENES_PER_FILE = 20
 
 INFO_PATH = "meta/info.json"

@@ -4,8 +4,12 @@ delta-coded, at most ``mgdata.scenes_per_file`` scenes per file.
 A jar task's compiled model (MJB, ``mgdata.record.physics.model_bytes``) is 5.8 MB, mostly the robot's and
 the objects' meshes, which every task of a family shares: two jar tasks' MJBs have the same size and differ
 in a few % of their bytes. So the first scene of each MJB size is stored whole and every later one as its
-byte-wise XOR with that one (mostly zeros); parquet's zstd compresses the first to ~2.5 MB and each later
-one to ~45 KB. Decoding needs only ``pyarrow`` and ``numpy``.
+byte-wise XOR with that one (mostly zeros); zstd (level 1) compresses the first to ~2.5 MB and each later
+one to ~45 KB. The ``data`` column holds each scene's standard zstd frame, written as it is (parquet's own
+compression off; schema metadata ``mgdata.data: zstd``), so a writer that rewrites the last file copies the
+frames it holds instead of decompressing and compressing every one again. Decoding needs only ``pyarrow``
+(``pa.Codec("zstd").decompress(data, decompressed_size=size)``, or any zstd tool) and ``numpy``; files
+written before framing (no such metadata) hold the bytes themselves and still read.
 
 Files are chunked like the data files (``layout.SCENES_PATH``: ``file-000``, ``file-001``, …, a new
 ``chunk-NNN`` every ``chunks_size`` files), each holding at most ``scenes_per_file`` scenes
@@ -19,7 +23,7 @@ against a whole scene of the old file, if one has their size).
 
 Columns: ``scene`` (id ``task_<task id:06d>_<sha256[:16]>``, referenced by the episodes-table column
 ``mgdata/scene``), ``task_id``, ``sha256`` and ``size`` of the MJB, ``base`` (``null``: ``data`` is the MJB;
-else the id of the scene ``data`` is XOR-coded against), ``data``.
+else the id of the scene ``data`` is XOR-coded against), ``data`` (zstd frame of ``size`` bytes).
 
 Example::
 
@@ -45,9 +49,11 @@ from mgdata.errors import DatasetError
 from mgdata.record import layout
 from mgdata.record.commit import FileView
 
+FRAMED = {b"mgdata.data": b"zstd"}
+"""Schema metadata of a scenes file whose ``data`` are zstd frames (files without it hold the bytes)."""
 SCHEMA = pa.schema([pa.field("scene", pa.string()), pa.field("task_id", pa.int64()),
                     pa.field("sha256", pa.string()), pa.field("size", pa.int64()),
-                    pa.field("base", pa.string()), pa.field("data", pa.large_binary())])
+                    pa.field("base", pa.string()), pa.field("data", pa.large_binary())], metadata=FRAMED)
 _META = [name for name in SCHEMA.names if name != "data"]
 _CHUNKED = re.compile(r"chunk-(\d+)/file-(\d+)\.parquet$")
 
@@ -75,12 +81,17 @@ def _order(rel: str) -> tuple[int, int, str]:
 
 
 def write_scenes(rows: Iterable[Mapping[str, Any]], path: Path) -> None:
-    """Write scenes rows (``data``: the stored bytes) to ``path``, one row group per scene, taking one row
-    at a time from ``rows`` (a writer unpacks them one by one)."""
-    with pq.ParquetWriter(path, SCHEMA, compression="zstd", use_dictionary=False,
+    """Write scenes rows (``data``: the MJB or its XOR delta) to ``path``, one row group per scene."""
+    _write_packed(({**row, "data": _Packed.of(row["data"])} for row in rows), path)
+
+
+def _write_packed(rows: Iterable[Mapping[str, Any]], path: Path) -> None:
+    """Write scenes rows whose ``data`` is :class:`_Packed` (its zstd frame is stored as it is)."""
+    with pq.ParquetWriter(path, SCHEMA, compression="none", use_dictionary=False,
                           write_statistics=["scene"]) as out:
         for row in rows:
-            columns = {f.name: pa.array([row[f.name]], f.type) for f in SCHEMA}
+            columns = {f.name: pa.array([row[f.name].data if f.name == "data" else row[f.name]], f.type)
+                       for f in SCHEMA}
             out.write_table(pa.table(columns, schema=SCHEMA))
 
 
@@ -105,7 +116,7 @@ class SceneRow:
 
 
 class _Packed(NamedTuple):
-    """Bytes held zstd-compressed in memory (and their length, to decompress them)."""
+    """Bytes as one zstd frame (and their length, to decompress them): how scenes are held and stored."""
 
     data: bytes
     size: int
@@ -119,7 +130,7 @@ class _Packed(NamedTuple):
 
 
 _CODEC = pa.Codec("zstd", compression_level=1)
-"""How scene bytes are held in memory: a whole jar scene packs to ~2.5 MB, a delta to ~45 KB."""
+"""How scene bytes are packed: a whole jar scene to ~2.5 MB, a delta to ~45 KB."""
 
 
 class Scenes:
@@ -131,8 +142,10 @@ class Scenes:
         files: the scenes files read (relative paths, storage order).
     """
 
-    def __init__(self, view: FileView, rows: list[SceneRow], legacy: Mapping[str, _Packed]) -> None:
+    def __init__(self, view: FileView, rows: list[SceneRow], legacy: Mapping[str, _Packed],
+                 framed: Collection[str] = ()) -> None:
         self._view = view
+        self._framed = frozenset(framed)  # the files whose data are zstd frames
         self._rows = rows
         self._by_id = {r.scene: r for r in rows}
         self._legacy = legacy  # the legacy file's data (one row group: read whole, held packed)
@@ -148,6 +161,7 @@ class Scenes:
         rows: list[SceneRow] = []
         legacy: dict[str, _Packed] = {}
         seen: dict[str, str] = {}
+        framed: list[str] = []
         for rel in scene_files(view):
             if rel in skip:
                 continue
@@ -158,6 +172,8 @@ class Scenes:
                     if names != SCHEMA.names:
                         raise DatasetError(f"{path}: columns {names}, expected {SCHEMA.names}")
                     meta = pf.read(columns=_META).to_pylist()
+                    if (pf.schema_arrow.metadata or {}).get(b"mgdata.data") == FRAMED[b"mgdata.data"]:
+                        framed.append(rel)
                     if rel == layout.LEGACY_SCENES_PATH:
                         data = pf.read(columns=["data"]).column("data")
                         legacy.update({m["scene"]: _Packed.of(data[i].as_buffer())
@@ -173,7 +189,7 @@ class Scenes:
                                        f"{view.root / seen[m['scene']]}")
                 seen[m["scene"]] = rel
                 rows.append(SceneRow(**m, file=rel, group=i))
-        return cls(view, rows, legacy)
+        return cls(view, rows, legacy, framed)
 
     def __contains__(self, scene: str) -> bool:
         return scene in self._by_id
@@ -193,10 +209,26 @@ class Scenes:
         return row
 
     def stored(self, scene: str) -> bytes:
-        """The ``data`` of ``scene`` as stored (its MJB, or its XOR delta against its base)."""
+        """The stored bytes of ``scene``: its MJB, or its XOR delta against its base."""
         row = self.row(scene)
-        if row.file == layout.LEGACY_SCENES_PATH:
-            return self._legacy[scene].raw()
+        if row.file not in self._framed:
+            return self._legacy[scene].raw() if row.file == layout.LEGACY_SCENES_PATH else self._data(row)
+        try:
+            return self.packed(scene).raw()
+        except (OSError, pa.ArrowException) as err:
+            raise DatasetError(f"{self._view.path(row.file)}: scene {scene!r} does not decode to its "
+                               f"recorded size and SHA-256 ({err})") from err
+
+    def packed(self, scene: str) -> _Packed:
+        """:meth:`stored`'s bytes as a zstd frame (read as it is from a framed file)."""
+        row = self.row(scene)
+        if row.file in self._framed:
+            return _Packed(self._data(row), row.size)
+        return self._legacy[scene] if row.file == layout.LEGACY_SCENES_PATH else _Packed.of(self.stored(scene))
+
+    def _data(self, row: SceneRow) -> bytes:
+        """The ``data`` cell of ``row`` in its chunked file."""
+        scene = row.scene
         path = self._view.path(row.file)
         try:
             with pq.ParquetFile(path) as pf:
@@ -233,7 +265,7 @@ class Scenes:
 @dataclass(frozen=True)
 class SceneAppender:
     """What a writer holds to append scenes: the stored ids, the whole scene of each MJB size (packed) and
-    the rows of the last chunked file (packed), never the other scenes; immutable (:meth:`with_scene`
+    the rows of the last chunked file (packed: their frames as stored), never the other scenes; immutable (:meth:`with_scene`
     returns a new one, which the writer keeps once its commit is done).
 
     Attributes:
@@ -271,7 +303,7 @@ class SceneAppender:
             return cls(per_file, chunks_size, frozenset(scenes.ids), bases)
         whole = {sid: packed for sid, packed in bases.values()}
         rows = tuple({**{k: getattr(r, k) for k in _META},
-                      "data": whole.get(r.scene) or _Packed.of(scenes.stored(r.scene))}
+                      "data": whole.get(r.scene) or scenes.packed(r.scene)}
                      for r in scenes.rows if r.file == chunked[-1])
         return cls(per_file, chunks_size, frozenset(scenes.ids), bases, scenes_file_ref(chunked[-1]), rows)
 
@@ -307,5 +339,5 @@ class SceneAppender:
         return layout.scenes_path(self.current)
 
     def write(self, path: Path) -> None:
-        """Write the last file's rows to ``path`` (unpacked one at a time)."""
-        write_scenes(({**r, "data": r["data"].raw()} for r in self.rows), path)
+        """Write the last file's rows to ``path`` (their zstd frames as they are)."""
+        _write_packed(self.rows, path)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 
@@ -22,10 +23,19 @@ def scene_row(root: Path, key: str) -> dict:
     are decoded."""
     files = [*root.glob("meta/scenes.parquet"), *sorted(root.glob("meta/scenes/chunk-*/file-*.parquet"))]
     for path in files:
-        rows = pq.read_table(path, filters=[("scene", "==", key)]).to_pylist()
+        table = pq.read_table(path, filters=[("scene", "==", key)])
+        rows = table.to_pylist()
         if rows:
-            return rows[0]
+            return {**rows[0], "data": unframed(table.schema, rows[0])}
     raise KeyError(f"{root}: no scene {key!r} in {[str(p) for p in files]}")
+
+
+def unframed(schema: pa.Schema, row: dict) -> bytes:
+    """A scenes row's stored bytes: its ``data`` as it is, or decompressed where the file's schema metadata
+    says ``mgdata.data: zstd`` (each cell one zstd frame of ``size`` bytes)."""
+    if (schema.metadata or {}).get(b"mgdata.data") != b"zstd":
+        return row["data"]
+    return pa.Codec("zstd").decompress(row["data"], decompressed_size=row["size"], asbytes=True)
 
 
 def scene_model(root: Path, key: str) -> mujoco.MjModel:

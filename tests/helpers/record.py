@@ -15,6 +15,7 @@ from mgdata.record.commit import sha256_file
 from mgdata.record.metafiles import dump_json
 from mgdata.record.synthetic import SYNTHETIC_SPEC, SyntheticEpisode, synthetic_episode, synthetic_schema
 from mgdata.record.writer import DatasetWriter
+from tests.helpers import rawdata
 
 SMALL = synthetic_schema(cameras=("front", "wrist", "left"), size=64)
 LENGTHS = (23, 31, 17, 40)
@@ -45,7 +46,7 @@ def to_legacy_scenes(root: Path) -> None:
     ``meta/scenes.parquet`` written as that code wrote it (one table, one row group, zstd, no dictionary),
     no ``mgdata.scenes_per_file``, the checksums to match."""
     files = sorted(root.glob("meta/scenes/chunk-*/file-*.parquet"))
-    table = pa.concat_tables([pq.read_table(p) for p in files]).combine_chunks()
+    table = pa.concat_tables([_unframed(pq.read_table(p)) for p in files]).combine_chunks()
     legacy = root / "meta/scenes.parquet"
     pq.write_table(table, legacy, compression="zstd", use_dictionary=False)
     shutil.rmtree(root / "meta/scenes")
@@ -54,6 +55,26 @@ def to_legacy_scenes(root: Path) -> None:
     sums = {k: v for k, v in mg["sha256"].items() if not k.startswith("meta/scenes/")}
     mg["sha256"] = dict(sorted({**sums, "meta/scenes.parquet": sha256_file(legacy)}.items()))
     del mg["scenes_per_file"]
+    (root / "meta/info.json").write_text(dump_json(info))
+
+
+def _unframed(table: pa.Table) -> pa.Table:
+    """A scenes table as mgdata wrote it before zstd frames: ``data`` the bytes, no schema metadata."""
+    rows = [{**row, "data": rawdata.unframed(table.schema, row)} for row in table.to_pylist()]
+    return pa.Table.from_pylist(rows, schema=table.schema.remove_metadata())
+
+
+def to_unframed_scenes(root: Path) -> None:
+    """Give a dataset's chunked scenes files the layout of mgdata before zstd frames (one row group per
+    scene, parquet's zstd, ``data`` the bytes), the checksums to match."""
+    info = json.loads((root / "meta/info.json").read_text())
+    for path in sorted(root.glob("meta/scenes/chunk-*/file-*.parquet")):
+        table = _unframed(pq.read_table(path))
+        with pq.ParquetWriter(path, table.schema, compression="zstd", use_dictionary=False,
+                              write_statistics=["scene"]) as out:
+            for k in range(table.num_rows):
+                out.write_table(table.slice(k, 1))
+        info["mgdata"]["sha256"][str(path.relative_to(root))] = sha256_file(path)
     (root / "meta/info.json").write_text(dump_json(info))
 
 

@@ -31,6 +31,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
+from tests.helpers import rawdata
 from tests.helpers.rawdata import raw_step
 from tests.helpers.repo import REPO
 
@@ -165,7 +166,8 @@ def test_one_scene_per_task_delta_coded_and_referenced_from_the_episodes_table(r
     ids = [reader.record(e).scene for e in range(3)]
     assert re.fullmatch(r"task_000000_[0-9a-f]{16}", ids[0]) and ids[1].startswith("task_000001_")
     assert ids[2] == ids[0]
-    rows = pq.read_table(recorded / SCENES).to_pylist()
+    table = pq.read_table(recorded / SCENES)
+    rows = [{**row, "data": rawdata.unframed(table.schema, row)} for row in table.to_pylist()]
     assert [(r["scene"], r["base"]) for r in rows] == [(ids[0], None), (ids[1], ids[0])]
     assert sorted(recorded.glob("meta/scenes*")) == [recorded / layout.SCENES_DIR]
     for e, task_id in enumerate(TASKS):
@@ -195,7 +197,8 @@ def test_model_bytes_are_identical_across_processes(recorded: Path) -> None:
 def test_a_broken_scene_is_reported(recorded: Path, tmp_path: Path) -> None:
     root = shutil.copytree(recorded, tmp_path / "ds")
     path = root / SCENES
-    rows = pq.read_table(path).to_pylist()
+    table = pq.read_table(path)
+    rows = [{**row, "data": rawdata.unframed(table.schema, row)} for row in table.to_pylist()]
     rows[1]["data"] = rows[1]["data"][:-1] + b"x"  # one byte of the delta-coded scene
     rows.append({**rows[1], "scene": "task_000009_0000000000000000"})
     write_scenes(rows, path)

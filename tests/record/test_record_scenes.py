@@ -33,7 +33,7 @@ from mgdata.sim.scene import build_scene
 from mgdata.tasks.base import draw_task
 from mgdata.tasks.recipe import load_recipe
 from tests.helpers import rawdata
-from tests.helpers.record import to_legacy_scenes
+from tests.helpers.record import to_legacy_scenes, to_unframed_scenes
 
 WIDTH = 78  # the jar scene's sim.physics_state width
 PLAIN = synthetic_schema(cameras=("front",), size=32)
@@ -88,8 +88,17 @@ def snapshot(root: Path) -> dict[str, tuple[int, bytes]]:
 def test_scenes_span_files_and_each_decodes_to_its_sha256(chunked: Path) -> None:
     reader = DatasetReader(chunked)
     assert sorted(str(p.relative_to(chunked)) for p in chunked.glob("meta/scenes/*/*.parquet")) == FILES
-    rows = {f: pq.read_table(chunked / f).to_pylist() for f in FILES}
+    tables = {f: pq.read_table(chunked / f) for f in FILES}
+    rows = {f: [{**r, "frame": r["data"], "data": rawdata.unframed(t.schema, r)} for r in t.to_pylist()]
+            for f, t in tables.items()}
     assert [len(r) for r in rows.values()] == [2, 2, 1]
+    assert all(t.schema.metadata == {b"mgdata.data": b"zstd"} for t in tables.values())
+    for f in FILES:  # each cell one zstd frame (magic 28 b5 2f fd), stored without parquet's compression
+        assert all(r["frame"][:4] == b"\x28\xb5\x2f\xfd" and len(r["frame"]) < len(r["data"]) for r in rows[f])
+        meta = pq.ParquetFile(chunked / f).metadata
+        data = meta.schema.names.index("data")
+        assert {meta.row_group(g).column(data).compression for g in range(meta.num_row_groups)} == \
+            {"UNCOMPRESSED"}
     assert [pq.ParquetFile(chunked / f).num_row_groups for f in FILES] == [2, 2, 1]  # one scene per group
     first = rows[FILES[0]][0]
     assert first["base"] is None and first["size"] == len(mjb(0))
@@ -128,6 +137,24 @@ def test_a_new_scene_rewrites_only_the_last_scenes_file(chunked: Path, tmp_path:
     assert [len(pq.read_table(root / f)) for f in new] == [2, 2, 2, 1]
     reader = DatasetReader(root)
     assert [reader.scene_mjb(e) for e in (6, 7, 8)] == [mjb(0), mjb(5), mjb(6)]
+    assert validate_dataset(root).ok, validate_dataset(root).problems
+
+
+def test_scenes_files_written_before_zstd_frames_read_validate_and_resume(chunked: Path,
+                                                                         tmp_path: Path) -> None:
+    root = shutil.copytree(chunked, tmp_path / "ds")
+    to_unframed_scenes(root)
+    assert all(pq.read_schema(root / f).metadata is None for f in FILES)
+    reader = DatasetReader(root)
+    assert [reader.scene_mjb(e) for e in range(len(TASKS))] == [mjb(t) for t in TASKS]
+    assert validate_dataset(root).ok, validate_dataset(root).problems
+    old = snapshot(root)
+    with DatasetWriter.open(root) as writer:
+        append(writer, 6, 5)  # the last (unframed) file is rewritten framed; the others stay as they are
+    new = snapshot(root)
+    assert {f: new[f] for f in FILES[:2]} == {f: old[f] for f in FILES[:2]}
+    assert pq.read_schema(root / FILES[2]).metadata == {b"mgdata.data": b"zstd"}
+    assert [DatasetReader(root).scene_mjb(e) for e in range(7)] == [mjb(t) for t in (*TASKS, 5)]
     assert validate_dataset(root).ok, validate_dataset(root).problems
 
 
