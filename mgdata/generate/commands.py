@@ -160,6 +160,57 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(1)
 
     @app.command()
+    def corrections(
+        rollouts: Annotated[Path, typer.Argument(
+            help="Recorded rollouts of one family: the folder mgdata eval --record wrote, "
+                 "<eval out>/rollouts/<family>.")],
+        out: Annotated[Path, typer.Option("--out", help="Corrections dataset folder (created, or resumed).")],
+        tasks: Annotated[str, typer.Option(
+            help="Correct the rollouts of these base tasks only, e.g. '0-31': leave held-out tasks out, "
+                 "or their layouts become training data.")] = "all",
+        back: Annotated[int, typer.Option(help="Frames between restart candidates, counted back from the "
+                                               "failure (20 = 1 s).")] = 20,
+        candidates: Annotated[int, typer.Option(help="Restart candidates per failed rollout.")] = 4,
+        tries: Annotated[int, typer.Option(help="Draws (planning seeds) per restart candidate.")] = 2,
+        per_failure: Annotated[int, typer.Option(help="Kept corrections wanted per failed rollout.")] = 1,
+        workers: Annotated[int | None, typer.Option(
+            help="Parallel processes, a rollout each (default: one per CPU core; same output for any "
+                 "count).", show_default=False)] = None,
+        seed: Annotated[int, typer.Option(help="Seed mixed into every correction's seed.")] = 0,
+        codec: Annotated[str, typer.Option(help="Video codec of a new dataset: h264 or av1.")] = "h264",
+        recipe: Annotated[Path | None, typer.Option(help="Use this recipe file (the one the scenarios were "
+                                                         "built from).")] = None,
+        grasps: Annotated[Path | None, typer.Option(help="Grasp database folder.")] = None,
+    ) -> None:
+        """Demonstrations restarted where a policy went wrong: for every failed rollout (a violation, or no
+        success), restart the planner from the rollout's own recorded state a little before the first
+        violation (or before the end, where the policy stalled), and keep what the physics gate keeps.
+
+        Candidates are the frames failure − back, failure − 2·back, … (--candidates of them); one the
+        restart rules refuse (objects moving, the spec already violated, an object in the hand) is passed
+        over. Each rollout's tries are listed in <out>/meta/mgdata_corrections.json. Re-run to resume.
+
+        Example: mgdata corrections eval/rollouts/jar --out datasets/jar_corrections --tasks 0-31
+        """
+        from mgdata.generate.corrections import CorrectionJob, correct
+        from mgdata.generate.summary import ProgressView, RunSummary, print_summary
+
+        job = CorrectionJob(rollouts=rollouts, out=out, tasks=parse_ids(tasks), back=back,
+                            candidates=candidates, tries=tries, per_failure=per_failure,
+                            workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
+                            codec=codec, grasps=grasps, recipe=recipe)
+        if not rollouts.is_dir():
+            raise DatasetError(f"{rollouts}: no such rollouts folder")
+        console = plain_console()
+        with ProgressView(RunSummary(out=out, target=0), console, "corrections") as view:
+            summary = correct(job, on_attempt=view.update)
+        if not summary.attempts and summary.kept_before == 0 and summary.target == 0:
+            console.print(f"{rollouts}: {summary.stopped}; nothing written")
+            return
+        print_summary(summary, console, "corrections")
+        console.print(f"tries per rollout: {out / 'meta' / 'mgdata_corrections.json'}")
+
+    @app.command()
     def preview(
         dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
         episodes: Annotated[str, typer.Option(help="Episode indices, e.g. '0-2,5'.")] = "0-2",

@@ -199,7 +199,7 @@ def check_inputs(job: GenerateJob) -> tuple[Recipe, tuple[int, ...], Path]:
     return recipe, tasks, grasps
 
 
-def _writable_dir(path: Path, option: str) -> Path:
+def writable_dir(path: Path, option: str) -> Path:
     """``path`` as an existing folder this process can write into, or :class:`OutputError` saying why not."""
     if path.exists() and not path.is_dir():
         raise OutputError(f"{option} {path}: is a file, not a folder")
@@ -212,21 +212,22 @@ def _writable_dir(path: Path, option: str) -> Path:
     return path
 
 
-def _output_error(err: OSError, out: Path) -> OutputError:
+def output_error(err: OSError, out: Path) -> OutputError:
     where = err.filename or out
     return OutputError(f"cannot write the dataset {out}: {where}: {err.strerror or err}; everything "
                        "committed before is kept: fix the cause and run the same command again to resume")
 
 
-def _open_dataset(root: Path, schema: DatasetSchema, job: GenerateJob, recipe: Recipe,
-                  identity: RunState, *, kept_only: bool) -> DatasetWriter:
-    """Create the dataset (its ``info.json`` records ``identity`` and the gate's promises: ``hold_steps``,
-    ``kept_only``) or resume it (``identity`` must match)."""
+def open_dataset(root: Path, schema: DatasetSchema, codec: str, recipe: Recipe, identity: RunState, *,
+                 kept_only: bool, extra: dict[str, object] | None = None) -> DatasetWriter:
+    """Create the dataset (its ``info.json`` records ``identity``, the gate's promises: ``hold_steps``,
+    ``kept_only``, and ``extra`` under ``mgdata``) or resume it (``identity`` must match)."""
     record = {"generator": {"family": identity.family, "seed": identity.seed,
                             "inputs_digest": identity.inputs_digest},
               "physics_gate": physics_gate(recipe).to_info(),
-              **({"recovery": recipe.recovery.to_info()} if recipe.recovery.perturbs else {})}
-    writer = DatasetWriter.open_or_create(root, schema, codec=job.codec, spec=recipe.spec, mgdata=record,
+              **({"recovery": recipe.recovery.to_info()} if recipe.recovery.perturbs else {}),
+              **(extra or {})}
+    writer = DatasetWriter.open_or_create(root, schema, codec=codec, spec=recipe.spec, mgdata=record,
                                           hold_steps=recipe.tasks.hold_steps, kept_only=kept_only)
     try:
         _check_identity(root, identity, writer.num_episodes)
@@ -267,18 +268,18 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     identity = RunState(job.family, job.seed, run_digest(inputs_digest(recipe, grasps), job.condition,
                                                          recipe.recovery.mode))
     try:
-        _writable_dir(out, "--out")
-        writer = _open_dataset(out, schema, job, recipe, identity, kept_only=True)
+        writable_dir(out, "--out")
+        writer = open_dataset(out, schema, job.codec, recipe, identity, kept_only=True)
     except OSError as err:
-        raise _output_error(err, out) from None
+        raise output_error(err, out) from None
     failed: DatasetWriter | None = None
     summary = RunSummary(out=out, target=job.n, kept_before=writer.num_episodes)
     start = time.perf_counter()
     try:
         neg_root = failed_path(out)
         if job.keep_failed or (neg_root / layout.INFO_PATH).exists():
-            failed = _open_dataset(_writable_dir(neg_root, "--keep-failed"), schema, job, recipe, identity,
-                                   kept_only=False)
+            failed = open_dataset(writable_dir(neg_root, "--keep-failed"), schema, job.codec, recipe,
+                                  identity, kept_only=False)
             summary.failed_out = neg_root if job.keep_failed else None
         state_path = out / STATE_FILE
         remove_stale_temps(state_path)  # a save cut short by kill -9 (the writer's lock is ours now)
@@ -315,7 +316,7 @@ def generate(job: GenerateJob, on_attempt: Callable[[RunSummary], None] | None =
     except KeyboardInterrupt:
         summary.stopped = "interrupted"
     except OSError as err:
-        raise _output_error(err, out) from None
+        raise output_error(err, out) from None
     finally:
         summary.wall = time.perf_counter() - start
         with sigint_deferred(reraise=False):
@@ -330,7 +331,7 @@ def _close(writer: DatasetWriter, failed: DatasetWriter | None, out: Path) -> No
         try:
             w.close()
         except OSError as err:
-            raise _output_error(err, out) from None
+            raise output_error(err, out) from None
 
 
 class Quota:

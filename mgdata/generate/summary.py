@@ -84,7 +84,7 @@ class ProgressView:
     """A rich progress bar: kept / target, attempts, yield, ETA. It appears on the first :meth:`update`
     (when the run has started), so a run refused for bad input prints only its error line."""
 
-    def __init__(self, summary: RunSummary, console: Console) -> None:
+    def __init__(self, summary: RunSummary, console: Console, label: str = "generate") -> None:
         self._started = False
         self._progress = Progress(
             TextColumn("[bold]{task.description}"), BarColumn(),
@@ -92,7 +92,7 @@ class ProgressView:
             TextColumn("· yield {task.fields[yield_]} · ETA {task.fields[eta]}"),
             TimeElapsedColumn(), console=console, transient=False)
         self._task: TaskID = self._progress.add_task(
-            "generate", total=summary.target, completed=summary.total_kept, attempts=0, yield_="–", eta="–")
+            label, total=summary.target, completed=summary.total_kept, attempts=0, yield_="–", eta="–")
 
     def __enter__(self) -> ProgressView:
         return self
@@ -114,9 +114,9 @@ class ProgressView:
                               eta=_fmt_time(summary.eta()))
 
 
-def summary_table(summary: RunSummary) -> Table:
+def summary_table(summary: RunSummary, command: str = "generate") -> Table:
     """Outcomes (kept and each failure stage) and the time split of the run."""
-    table = Table(title=f"mgdata generate: {summary.stopped or 'done'}", show_header=True)
+    table = Table(title=f"mgdata {command}: {summary.stopped or 'done'}", show_header=True)
     table.add_column("outcome")
     table.add_column("attempts", justify="right")
     table.add_column("share", justify="right")
@@ -134,8 +134,8 @@ def summary_table(summary: RunSummary) -> Table:
     return table
 
 
-def print_summary(summary: RunSummary, console: Console) -> None:
-    console.print(summary_table(summary))
+def print_summary(summary: RunSummary, console: Console, command: str = "generate") -> None:
+    console.print(summary_table(summary, command))
     console.print(f"dataset: {summary.out} ({summary.total_kept} of {summary.target} kept episodes; "
                   f"{summary.kept} new from {summary.attempts} attempts)")
     if summary.failed_out is not None:

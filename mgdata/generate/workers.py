@@ -27,11 +27,15 @@ import collections
 import multiprocessing as mp
 import os
 import signal
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
+from typing import Any
+
+import numpy as np
 
 from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
@@ -90,7 +94,7 @@ class Worker:
         self._executors: collections.OrderedDict[tuple[int, str], tuple[Executor, CameraRig | None]] = \
             collections.OrderedDict()
 
-    def _executor(self, task_id: int, condition: str, timings: Timings) -> tuple[Executor, CameraRig | None]:
+    def executor(self, task_id: int, condition: str, timings: Timings) -> tuple[Executor, CameraRig | None]:
         """The executor of the task in ``condition`` (the task as ``mgdata scenarios`` builds it) and, when
         rendering after the gate, the rig that renders its episodes (the time a new one takes goes into
         ``timings``)."""
@@ -115,15 +119,21 @@ class Worker:
         self._executors[key] = (ex, rig)
         return ex, rig
 
-    def run(self, task_id: int, draw: int) -> AttemptDone:
-        path = self.config.stage_dir / f"task{task_id:04d}-draw{draw:06d}"
+    def run(self, task_id: int, draw: int, *, condition: str | None = None, start: np.ndarray | None = None,
+            origin: Mapping[str, Any] | None = None, source: str = "planner", name: str | None = None
+            ) -> AttemptDone:
+        """Attempt ``draw`` of ``task_id`` in ``condition`` (default: the run's condition for that draw),
+        staged in ``name`` under the stage folder (default ``task<id>-draw<draw>``); ``start``, ``origin``
+        and ``source`` are the executor's (a restart, :meth:`Executor.run`)."""
+        path = self.config.stage_dir / (name or f"task{task_id:04d}-draw{draw:06d}")
         stager = EpisodeStager(path, self.schema, self.config.video)
         setup = Timings()
-        ex, rig = self._executor(task_id, attempt_condition(self.config.condition, draw), setup)
+        ex, rig = self.executor(task_id, condition or attempt_condition(self.config.condition, draw), setup)
         deferred = DeferredRenderSink(stager, rig) if rig is not None else None
         sink: EpisodeSink = deferred if deferred is not None else stager
         try:
-            result = ex.run(draw, sink, keep_failed=self.config.keep_failed)
+            result = ex.run(draw, sink, keep_failed=self.config.keep_failed, start=start, origin=origin,
+                            source=source)
         except BaseException:
             sink.discard_episode()
             raise
@@ -162,15 +172,16 @@ def _init_worker(config: WorkerConfig, parent: int) -> None:
         _START_ERROR = err
 
 
-def _run_in_worker(task_id: int, draw: int) -> AttemptDone:
+def _run_in_worker(fn: Callable[..., Any], *args: Any) -> Any:
     if _START_ERROR is not None:
         raise _START_ERROR
     assert _WORKER is not None
-    return _WORKER.run(task_id, draw)
+    return fn(_WORKER, *args)
 
 
 class AttemptPool:
-    """Submit attempts; get them back finished, in submission order.
+    """Submit attempts (or any work a :class:`Worker` does, :meth:`call`); get them back finished, in
+    submission order.
 
     ``workers == 1`` runs each attempt in this process when its result is asked for (Ctrl-C interrupts it
     cleanly); more workers run in ``spawn``-ed processes with up to ``2 × workers`` attempts in flight.
@@ -181,7 +192,8 @@ class AttemptPool:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self.capacity = 1 if workers == 1 else 2 * workers
-        self._queue: collections.deque[tuple[int, int, Future[AttemptDone] | None]] = collections.deque()
+        self._queue: collections.deque[tuple[Callable[..., Any], tuple[Any, ...], Future[Any] | None]] = \
+            collections.deque()
         self._local = Worker(config) if workers == 1 else None
         self._pool = None if workers == 1 else ProcessPoolExecutor(
             workers, mp_context=mp.get_context("spawn"), initializer=_init_worker,
@@ -192,26 +204,30 @@ class AttemptPool:
         return len(self._queue)
 
     def submit(self, task_id: int, draw: int) -> None:
-        handle = None if self._pool is None else self._submit(task_id, draw)
-        self._queue.append((task_id, draw, handle))
+        """Attempt ``draw`` of ``task_id`` (:meth:`Worker.run`); :meth:`next_done` gives its
+        :class:`AttemptDone`."""
+        self.call(Worker.run, task_id, draw)
 
-    def _submit(self, task_id: int, draw: int) -> Future[AttemptDone]:
-        assert self._pool is not None
-        try:
-            return self._pool.submit(_run_in_worker, task_id, draw)
-        except BrokenProcessPool:
-            raise self._died() from None
+    def call(self, fn: Callable[..., Any], *args: Any) -> None:
+        """Run ``fn(worker, *args)`` in a worker (``fn``: a module-level function, picklable by name)."""
+        handle = None
+        if self._pool is not None:
+            try:
+                handle = self._pool.submit(_run_in_worker, fn, *args)
+            except BrokenProcessPool:
+                raise self._died() from None
+        self._queue.append((fn, args, handle))
 
-    def next_done(self) -> AttemptDone:
-        """The oldest submitted attempt, waiting for it if needed.
+    def next_done(self) -> Any:
+        """The oldest submitted work's result, waiting for it if needed.
 
         Raises:
             WorkerError: a worker process died (killed or crashed) before returning it.
         """
-        task_id, draw, handle = self._queue.popleft()
+        fn, args, handle = self._queue.popleft()
         if handle is None:
             assert self._local is not None
-            return self._local.run(task_id, draw)
+            return fn(self._local, *args)
         try:
             return handle.result()
         except BrokenProcessPool:

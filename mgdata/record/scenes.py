@@ -224,7 +224,9 @@ class Scenes:
         row = self.row(scene)
         if row.file in self._framed:
             return _Packed(self._data(row), row.size)
-        return self._legacy[scene] if row.file == layout.LEGACY_SCENES_PATH else _Packed.of(self.stored(scene))
+        if row.file == layout.LEGACY_SCENES_PATH:
+            return self._legacy[scene]
+        return _Packed.of(self.stored(scene))
 
     def _data(self, row: SceneRow) -> bytes:
         """The ``data`` cell of ``row`` in its chunked file."""
@@ -265,8 +267,8 @@ class Scenes:
 @dataclass(frozen=True)
 class SceneAppender:
     """What a writer holds to append scenes: the stored ids, the whole scene of each MJB size (packed) and
-    the rows of the last chunked file (packed: their frames as stored), never the other scenes; immutable (:meth:`with_scene`
-    returns a new one, which the writer keeps once its commit is done).
+    the rows of the last chunked file (packed: their frames as stored), never the other scenes; immutable
+    (:meth:`with_scene` returns a new one, which the writer keeps once its commit is done).
 
     Attributes:
         per_file: scenes per file; chunks_size: files per chunk.

@@ -94,7 +94,8 @@ def test_scenes_span_files_and_each_decodes_to_its_sha256(chunked: Path) -> None
     assert [len(r) for r in rows.values()] == [2, 2, 1]
     assert all(t.schema.metadata == {b"mgdata.data": b"zstd"} for t in tables.values())
     for f in FILES:  # each cell one zstd frame (magic 28 b5 2f fd), stored without parquet's compression
-        assert all(r["frame"][:4] == b"\x28\xb5\x2f\xfd" and len(r["frame"]) < len(r["data"]) for r in rows[f])
+        assert all(r["frame"][:4] == b"\x28\xb5\x2f\xfd" and len(r["frame"]) < len(r["data"])
+                   for r in rows[f])
         meta = pq.ParquetFile(chunked / f).metadata
         data = meta.schema.names.index("data")
         assert {meta.row_group(g).column(data).compression for g in range(meta.num_row_groups)} == \
