@@ -237,17 +237,27 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def merge(
         shards: Annotated[list[Path], typer.Argument(
-            help="The shard datasets (mgdata generate --shard i/N).")],
+            help="The shard datasets (mgdata generate --shard i/N), or with --concat any datasets of one "
+                 "family.")],
         out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
+        concat: Annotated[bool, typer.Option(
+            "--concat", help="Join datasets of different runs (e.g. demos and their corrections) into a "
+                             "training set: every episode of the first, then of the next, …")] = False,
     ) -> None:
-        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte.
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte; with
+        --concat, join datasets of one family, schema and spec in the order given.
 
         Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        Example: mgdata merge --concat datasets/jar datasets/jar_corrections --out datasets/jar_round2
         """
-        from mgdata.generate.merge import merge_shards
+        from mgdata.generate.merge import concat_datasets, merge_shards
 
         for shard in shards:
             if not shard.is_dir():
                 raise DatasetError(f"{shard}: no such dataset folder")
+        if concat:
+            n = concat_datasets(list(shards), out)
+            plain_console().print(f"wrote {out} ({n} episodes from {len(shards)} datasets)")
+            return
         n = merge_shards(list(shards), out)
         plain_console().print(f"wrote {out} ({n} episodes from {len(shards)} shards)")

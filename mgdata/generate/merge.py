@@ -12,9 +12,16 @@ seed, inputs digest), schema and video settings, and no (task, draw) may appear 
 built in ``.partial`` folders and renamed when complete, negatives first and ``out`` last, so ``out``
 existing means the merge finished; a re-run after an interrupted merge replaces a leftover ``<out>_failed``.
 
+``mgdata merge --concat A B … --out OUT`` (:func:`concat_datasets`) joins datasets of *different* runs of one
+family (e.g. demos and their corrections, ``mgdata corrections``) into a training set: every episode of
+``A``, then of ``B``, …, re-staged the same way. They must share schema, video settings, spec and gate; the
+result records each input's generator identity under ``mgdata.joined`` and no generator of its own, so
+``mgdata generate`` does not resume it.
+
 Example::
 
     merge_shards([Path("ds/s0"), Path("ds/s1")], Path("ds/jar"))
+    concat_datasets([Path("ds/jar"), Path("ds/jar_corrections")], Path("ds/jar_round2"))
 """
 
 from __future__ import annotations
@@ -66,6 +73,42 @@ def _merge_shards(shards: list[Path], out: Path) -> int:
     return sum(r.num_episodes for r in readers)
 
 
+def concat_datasets(datasets: list[Path], out: Path) -> int:
+    """Write every episode of ``datasets``, in the order given, into a new dataset ``out`` (module
+    docstring); returns its episode count."""
+    out = Path(out)
+    with output_lock(out):
+        if out.exists():
+            raise OutputError(f"--out {out}: already exists; choose a new folder")
+        for root in datasets:
+            check_intact(Path(root), "nothing was merged")
+        readers = [DatasetReader(Path(d)) for d in datasets]
+        first = readers[0]
+        families = {rec.meta.family for r in readers for rec in r.records()}
+        if len(families) > 1:
+            raise DatasetError(f"the datasets hold episodes of {sorted(families)}; --concat joins one family")
+        for r in readers[1:]:
+            _check_like(r, first)
+        joined = [{"dataset": r.root.name, "episodes": r.num_episodes,
+                   "generator": r.info["mgdata"].get("generator")} for r in readers]
+        part = out.with_name(out.name + ".partial")
+        shutil.rmtree(part, ignore_errors=True)
+        with DatasetWriter.create_like(part, first, mgdata={"joined": joined}, identity=False) as writer:
+            stage = writer.root / layout.WORK_DIR / "merge"
+            for r in readers:
+                for rec in r.records():
+                    writer.append_staged(restage(r, rec.index, stage))
+        os.replace(part, out)
+        return sum(r.num_episodes for r in readers)
+
+
+def _check_like(r: DatasetReader, first: DatasetReader) -> None:
+    if r.schema != first.schema or r.video != first.video or r.spec != first.spec or \
+            (r.hold_steps, r.kept_only) != (first.hold_steps, first.kept_only):
+        raise DatasetError(f"{r.root}: its schema, video settings, spec or gate differ from "
+                           f"{first.root}'s")
+
+
 def _state(reader: DatasetReader) -> RunState:
     state = RunState.load(reader.root / STATE_FILE)
     if state is None:
@@ -81,10 +124,7 @@ def _check_same(readers: list[DatasetReader], states: list[RunState]) -> None:
             raise DatasetError(f"{r.root}: generated as {s.family!r} seed {s.seed} inputs "
                                f"{s.inputs_digest}, {first.root} as {s0.family!r} seed {s0.seed} inputs "
                                f"{s0.inputs_digest}: shards of one run must agree")
-        if r.schema != first.schema or r.video != first.video or r.spec != first.spec or \
-                (r.hold_steps, r.kept_only) != (first.hold_steps, first.kept_only):
-            raise DatasetError(f"{r.root}: its schema, video settings, spec or gate differ from "
-                               f"{first.root}'s")
+        _check_like(r, first)
         for rec in r.records():
             key = (rec.meta.task_id, rec.meta.draw_index)
             if key in seen:

@@ -151,15 +151,16 @@ class DatasetWriter:
 
     @classmethod
     def create_like(cls, root: Path, source: DatasetReader, *, schema: DatasetSchema | None = None,
-                    video: VideoSettings | None = None, mgdata: dict | None = None) -> DatasetWriter:
+                    video: VideoSettings | None = None, mgdata: dict | None = None,
+                    identity: bool = True) -> DatasetWriter:
         """Start a new dataset in ``root`` written as ``source`` was: its video settings, spec, file sizes,
-        the gate's promises (its physical bounds included) and its generator's inputs digest (after the keys
-        of ``mgdata``); ``schema`` and ``video`` replace ``source``'s (a re-render). What ``merge``,
-        ``render`` and ``validate --repair`` write."""
+        the gate's promises (its physical bounds included) and, with ``identity``, its generator's inputs
+        digest (after the keys of ``mgdata``); ``schema`` and ``video`` replace ``source``'s (a re-render).
+        What ``merge``, ``render`` and ``validate --repair`` write."""
         info, mg = source.info, source.info["mgdata"]
         video = video or source.video
         extra = dict(mgdata or {})
-        for key in ("generator", "physics_gate", "recovery"):
+        for key in ("generator", "physics_gate", "recovery")[0 if identity else 1:]:
             if mg.get(key) is not None:
                 extra[key] = mg[key]
         return cls.create(

@@ -139,6 +139,19 @@ def test_two_workers_write_the_same_bytes(corrected, tmp_path: Path) -> None:  #
         return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*")
                 if p.is_file() and ".work" not in p.parts}
     assert files(other) == files(out)
+    # demos and their corrections join into one training set (here: the two copies), in the order given
+    joined = tmp_path / "joined"
+    proc = mgdata_here("merge", "--concat", out, other, "--out", joined)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    a, b, j = DatasetReader(out), DatasetReader(other), DatasetReader(joined)
+    assert j.num_episodes == a.num_episodes + b.num_episodes
+    for k in range(j.num_episodes):
+        src, e = (a, k) if k < a.num_episodes else (b, k - a.num_episodes)
+        assert j.episode(k).physics_state.tobytes() == src.episode(e).physics_state.tobytes()
+        assert j.episode(k).meta == src.episode(e).meta
+    assert validate_dataset(joined).ok
+    proc = mgdata_here("generate", "--family", "jar", "--n", "3", "--out", joined, "--recipe", job.recipe)
+    assert proc.returncode != 0 and "records no generator inputs" in proc.stdout + proc.stderr
 
 
 def test_bad_input_is_one_error_line_and_writes_nothing(rollouts: Path, demo: Path, tmp_path: Path) -> None:
