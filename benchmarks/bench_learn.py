@@ -246,10 +246,10 @@ class Server:
 
 
 def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
-             env: dict[str, str]) -> list[dict]:
+             env: dict[str, str], record: bool = False) -> list[dict]:
     cmd = [*MGDATA, "eval", "--policy", url, "--scenarios", str(scenarios), "--convention", "state",
            "--seeds", "0", "--workers", str(args.workers), "--chunk-steps", str(args.chunk_steps),
-           "--out", str(out)]
+           "--out", str(out), *(["--record"] if record else [])]
     if args.horizon:
         cmd += ["--horizon", str(args.horizon)]
     if args.ensemble >= 0:
@@ -369,7 +369,8 @@ def print_ablation(reports: dict[str, dict]) -> None:
         print(f"{spec}: {rep.get('command', '')}")
 
 
-def main() -> None:
+def build_parser() -> argparse.ArgumentParser:
+    """The benchmark's options (also the learner settings of ``bench_corrections.py``)."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--protocol", choices=("family", "single"), default="family")
     p.add_argument("--family", default="jar")
@@ -423,7 +424,15 @@ def main() -> None:
                    "'plain', 'dart' or 'replan' (recovery), 'a=0.05' (its amplitude), 'x5' (5x the layouts, "
                    "--per-task each), 'seed=1001' (another training seed); e.g. plain,dart,x5,dart+seed=1001")
     p.add_argument("--stop-after", choices=("data", "train"), default=None)
+    p.add_argument("--record", action="store_true",
+                   help="record the trained-layout rollouts (mgdata eval --record: eval_seen/rollouts), the "
+                        "input of mgdata corrections")
     p.add_argument("--out", type=Path, required=True)
+    return p
+
+
+def main() -> None:
+    p = build_parser()
     args = p.parse_args()
     if args.ablation:
         ablation(args, p)
@@ -495,7 +504,7 @@ def main() -> None:
     results: dict = {}
     try:
         env = {"MGDATA_ROOT": str(eval_root)}
-        records = evaluate(args, server.url, scen["seen"], out / "eval_seen", env)
+        records = evaluate(args, server.url, scen["seen"], out / "eval_seen", env, args.record)
         for c in conds:
             results[c] = summarise([r for r in records if r["condition"] == c], c)
         if heldout:

@@ -170,7 +170,9 @@ def register(app: typer.Typer) -> None:
                  "or their layouts become training data.")] = "all",
         back: Annotated[int, typer.Option(help="Frames between restart candidates, counted back from the "
                                                "failure (20 = 1 s).")] = 20,
-        candidates: Annotated[int, typer.Option(help="Restart candidates per failed rollout.")] = 4,
+        candidates: Annotated[int, typer.Option(
+            help="Restart frames tried per failed rollout (frames the restart rules refuse do not count).")]
+        = 4,
         tries: Annotated[int, typer.Option(help="Draws (planning seeds) per restart candidate.")] = 2,
         per_failure: Annotated[int, typer.Option(help="Kept corrections wanted per failed rollout.")] = 1,
         workers: Annotated[int | None, typer.Option(
@@ -186,9 +188,10 @@ def register(app: typer.Typer) -> None:
         success), restart the planner from the rollout's own recorded state a little before the first
         violation (or before the end, where the policy stalled), and keep what the physics gate keeps.
 
-        Candidates are the frames failure − back, failure − 2·back, … (--candidates of them); one the
-        restart rules refuse (objects moving, the spec already violated, an object in the hand) is passed
-        over. Each rollout's tries are listed in <out>/meta/mgdata_corrections.json. Re-run to resume.
+        Candidates are the frames failure − back, failure − 2·back, …; one the restart rules refuse
+        (objects moving, the spec already violated, an object in the hand) is passed over, and after
+        --candidates frames tried the rollout is left. Each rollout's tries are listed in
+        <out>/meta/mgdata_corrections.json. Re-run to resume.
 
         Example: mgdata corrections eval/rollouts/jar --out datasets/jar_corrections --tasks 0-31
         """

@@ -2,19 +2,21 @@
 
 A recorded rollout (``mgdata eval --record``) *failed* if it violated a constraint (``unsafe``) or did not
 end in success (its ``end``: ``timeout``, ``sim_diverged``, …). Its *failure step* is its first violation,
-else its last frame (where the policy stalled). The restart candidates are the frames ``f − back``,
-``f − 2·back``, … (``candidates`` of them, frame ≥ 1): a little before things went wrong, in the state the
-policy itself brought the scene to. Each candidate is restarted from its recorded physics state
-(:meth:`Executor.run <mgdata.engine.executor.Executor.run>` with ``start=``) with up to ``tries`` draws
-until one is kept; a candidate the restart rules refuse (``restart_refused``: objects still moving, the spec
-already violated, an object in the hand, the skeleton's own feasibility; :mod:`mgdata.engine.restart`) is
-passed over at once, those rules not depending on the draw. A rollout stops once ``per_failure`` of its
-candidates gave a kept correction. Every correction passes the same physics gate as a generated demo.
+else its last frame (where the policy stalled). The restart frames are ``f − back``, ``f − 2·back``, …
+(down to frame 1): a little before things went wrong, in the state the policy itself brought the scene to.
+Each is restarted from its recorded physics state (:meth:`Executor.run
+<mgdata.engine.executor.Executor.run>` with ``start=``) with up to ``tries`` draws until one is kept; a frame
+the restart rules refuse (``restart_refused``: objects still moving, the spec already violated, an object in
+the hand, the skeleton's own feasibility; :mod:`mgdata.engine.restart`) is passed over at once, those rules
+not depending on the draw, and does not count. A rollout stops once ``candidates`` frames were tried or
+``per_failure`` of them gave a kept correction. Every correction passes the same physics gate as a generated
+demo.
 
 A correction's metadata: ``mgdata/source = correction`` and ``variation.restart`` = ``parent`` (the rollout:
 scenario, seed, episode index in the rollouts dataset, policy), ``step`` (its restart frame),
 ``failure_step``, ``failure`` and ``phases`` (the skeleton's phases it ran). Its draw index is
-``(episode · candidates + j) · tries + t`` (candidate ``j``, try ``t``), so its seed is recorded and distinct.
+``(episode · L + frame) · tries + t`` (try ``t``, ``L`` the longest rollout's frame count), so its seed is
+recorded and distinct.
 
 A rollout is the unit of work: a worker runs all of its tries; the main process commits each rollout's kept
 corrections in rollouts-dataset order (same bytes for any worker count) and records what every try gave in
@@ -73,7 +75,7 @@ class CorrectionJob:
         out: the corrections dataset (created, or resumed with the same settings).
         tasks: the base tasks whose rollouts are corrected (``None``: all; leave held-out tasks out).
         back: frames between restart candidates (20 = 1 s at 20 Hz).
-        candidates: restart candidates per failed rollout.
+        candidates: restart frames tried per failed rollout (refused ones do not count).
         tries: draws per candidate.
         per_failure: kept corrections wanted per failed rollout.
         workers, seed, codec, grasps, recipe: as ``mgdata generate``'s.
@@ -108,6 +110,7 @@ class Failure:
         kind: ``unsafe`` or the rollout's end. step: the failure step (a frame index).
         scene_sha: SHA-256 of the rollout's compiled scene (a correction must run in the very same scene).
         restarts: (frame, physics state) of each candidate, latest first.
+        stride: frames per rollout in the draw index (the longest rollout's frame count).
     """
 
     episode: int
@@ -118,6 +121,7 @@ class Failure:
     step: int
     scene_sha: str
     restarts: tuple[tuple[int, np.ndarray], ...]
+    stride: int
 
     @property
     def key(self) -> str:
@@ -134,10 +138,10 @@ class Corrected:
     tries: tuple[dict[str, Any], ...]
 
 
-def failures(reader: DatasetReader, tasks: tuple[int, ...] | None, back: int,
-             candidates: int) -> list[Failure]:
+def failures(reader: DatasetReader, tasks: tuple[int, ...] | None, back: int) -> list[Failure]:
     """The failed rollouts of ``reader`` (of ``tasks``), in dataset order, with their restart candidates."""
     found: list[Failure] = []
+    stride = max((rec.length for rec in reader.records()), default=1)
     for rec in reader.records():
         meta = rec.meta
         origin = dict(meta.variation).get("rollout")
@@ -151,7 +155,7 @@ def failures(reader: DatasetReader, tasks: tuple[int, ...] | None, back: int,
         if origin["end"] == "success" and not violations:
             continue
         step = min(violations) if violations else rec.length - 1
-        frames = [step - j * back for j in range(1, candidates + 1) if step - j * back >= 1]
+        frames = range(step - back, 0, -back)
         ep = reader.episode(rec.index)
         if ep.physics_state is None:
             raise DatasetError(f"{reader.root}: stores no physics states; record the rollouts with "
@@ -161,7 +165,7 @@ def failures(reader: DatasetReader, tasks: tuple[int, ...] | None, back: int,
         found.append(Failure(rec.index, parent, meta.task_id, meta.condition,
                              "unsafe" if violations else str(origin["end"]), step,
                              hashlib.sha256(reader.scene_mjb(rec.index)).hexdigest(),
-                             tuple((k, ep.physics_state[k].copy()) for k in frames)))
+                             tuple((k, ep.physics_state[k].copy()) for k in frames), stride))
     return found
 
 
@@ -174,21 +178,22 @@ def correct_rollout(worker: Worker, failure: Failure, job: CorrectionJob) -> Cor
                            "with the recipe and grasps its scenarios were built from (--recipe, --grasps)")
     attempts: list[AttemptDone] = []
     tries: list[dict[str, Any]] = []
-    kept = 0
-    for j, (step, state) in enumerate(failure.restarts):
+    kept = tried = 0
+    for step, state in failure.restarts:
         for t in range(job.tries):
-            draw = (failure.episode * job.candidates + j) * job.tries + t
+            draw = (failure.episode * failure.stride + step) * job.tries + t
             origin = {"parent": dict(failure.parent), "step": step, "failure_step": failure.step,
                       "failure": failure.kind}
             done = worker.run(failure.task_id, draw, condition=failure.condition, start=state, origin=origin,
-                              source=SOURCE, name=f"rollout{failure.episode:06d}-draw{draw:09d}")
+                              source=SOURCE, name=f"rollout{failure.episode:06d}-draw{draw:012d}")
             r = done.result
             attempts.append(done)
             tries.append({"step": step, "draw": draw, "kept": r.kept, "stage": r.stage, "reason": r.reason})
             if r.kept or r.stage == "restart_refused":
                 break
         kept += tries[-1]["kept"]
-        if kept >= job.per_failure:
+        tried += tries[-1]["stage"] != "restart_refused"
+        if kept >= job.per_failure or tried >= job.candidates:
             break
     return Corrected(failure, tuple(attempts), tuple(tries))
 
@@ -244,7 +249,7 @@ def correct(job: CorrectionJob, on_attempt: Callable[[RunSummary], None] | None 
     ``on_attempt(summary)`` is called when the tries start and after every committed rollout.
     """
     reader, recipe, grasps = _check(job)
-    found = failures(reader, job.tasks, job.back, job.candidates)
+    found = failures(reader, job.tasks, job.back)
     out = Path(job.out)
     summary = RunSummary(out=out, target=0)
     if not found:

@@ -33,7 +33,8 @@ BACK, CANDIDATES, TRIES = 8, 3, 2
 
 
 @pytest.fixture(scope="module")
-def rollouts(scenario_set: Path, unsafe_demo: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+def rollouts(scenario_set: Path, unsafe_demo: Path,
+             tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """The recorded rollouts of the unsafe negative replayed in jar task 0's base and target scenarios."""
     server = PolicyServer(ReplayPolicy(unsafe_demo, chunk=16, scenarios=scenario_set), port=0)
     threading.Thread(target=server.serve_forever, daemon=True).start()
@@ -85,9 +86,10 @@ def test_corrections_restart_before_the_failure_where_the_hand_is_free(corrected
         ep = source.episode(i)
         first = min(t for t in ep.meta.t_violation.values() if t is not None)
         assert entry["failure"] == "unsafe" and entry["failure_step"] == first
-        allowed = [first - j * BACK for j in range(1, CANDIDATES + 1)]
         steps = [t["step"] for t in entry["tries"]]
-        assert steps == sorted(steps, reverse=True) and set(steps) <= set(allowed)  # latest first
+        assert steps == sorted(steps, reverse=True) and set(steps) <= set(range(first - BACK, 0, -BACK))
+        tried = {t["step"] for t in entry["tries"] if t["stage"] != "restart_refused"}
+        assert len(tried) <= CANDIDATES and (entry["corrections"] or len(tried) == CANDIDATES)
         model = mujoco.MjModel.from_binary_path("s.mjb", {"s.mjb": source.scene_mjb(i)})
         for t in entry["tries"]:
             touched = _hand_touches(model, ep.physics_state[t["step"]], spec)
