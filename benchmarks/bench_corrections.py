@@ -23,6 +23,7 @@ Example (CPU, about 1.5 hours on an idle 2-core machine)::
 
 from __future__ import annotations
 
+import argparse
 import collections
 import json
 import shlex
@@ -35,7 +36,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_learn as bl
 
-OWN = {"--per-failure", "--back", "--candidates", "--tries", "--out"}
+OWN = {"--per-failure", "--back", "--candidates", "--tries", "--out", "--extra-seeds"}
 
 
 def _passed_on(argv: list[str]) -> list[str]:
@@ -104,6 +105,10 @@ def main() -> None:
     p.add_argument("--back", type=int, default=20, help="frames between restart candidates")
     p.add_argument("--candidates", type=int, default=4, help="restart candidates per failed rollout")
     p.add_argument("--tries", type=int, default=2, help="draws per restart candidate")
+    p.add_argument("--extra-seeds", default="",
+                   help="more training seeds (e.g. 1001,1002): each trains round 1's data, the corrections "
+                   "arm's and the plain arm's again, scored on the same starts (one training run's outcome "
+                   "varies more than the starts' binomial error)")
     args = p.parse_args()
     if args.protocol != "family" or args.ablation:
         p.error("the corrections round runs the family protocol, without --ablation")
@@ -147,13 +152,25 @@ def main() -> None:
                 str(n + m), "--workers", str(args.workers), "--out", str(plain)],
                {"MGDATA_ROOT": str(r1 / "root_train")}, out / "plain_more.log")
     plain_more = _arm(args, "plain_more", plain, r1, out)
+    seeds: dict[str, dict] = {}
+    for seed in [int(x) for x in args.extra_seeds.split(",") if x]:
+        other = argparse.Namespace(**{**vars(args), "seed": seed})
+        for name, data in (("plain", r1 / "data"), ("with_corrections", joined), ("plain_more", plain)):
+            seeds[f"{name}_seed{seed}"] = _arm(other, f"{name}_seed{seed}", data, r1, out)
     report = {"command": shlex.join(sys.argv), "n": n, "m": m, "corrections": tries,
               "round1": {"episodes": n, "train": round1["train"], "eval": round1["eval"]},
-              "with_corrections": with_corr, "plain_more": plain_more, "wall_s": round(time.time() - t0, 1),
+              "with_corrections": with_corr, "plain_more": plain_more, "other_seeds": seeds,
+              "wall_s": round(time.time() - t0, 1),
               "training": "from scratch, the same learner, steps and seed in every arm"}
     (out / "round.json").write_text(json.dumps(report, indent=1, default=str))
-    rows = {f"round 1: {n} plain": round1, f"{n} plain + {m} corrections": with_corr,
-            f"{n + m} plain": plain_more}
+    rows = {f"round 1: {n} plain (seed {args.seed})": round1,
+            f"{n} plain + {m} corrections (seed {args.seed})": with_corr,
+            f"{n + m} plain (seed {args.seed})": plain_more}
+    for name, rep_ in seeds.items():
+        arm, seed = name.rsplit("_seed", 1)
+        label = {"plain": f"{n} plain", "with_corrections": f"{n} plain + {m} corrections",
+                 "plain_more": f"{n + m} plain"}[arm]
+        rows[f"{label} (seed {seed})"] = rep_
     head = ("arm", "steps", "held-out SSR", "held-out EVR", "held-out TSR", "trained SSR", "trained EVR")
     table = [(name, str(r["train"]["steps"]), bl._rate(r["eval"].get("heldout"), "ssr"),
               bl._rate(r["eval"].get("heldout"), "evr"), bl._rate(r["eval"].get("heldout"), "tsr"),
