@@ -216,7 +216,8 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def preview(
         dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
-        episodes: Annotated[str, typer.Option(help="Episode indices, e.g. '0-2,5'.")] = "0-2",
+        episodes: Annotated[str | None, typer.Option(
+            help="Episode indices, e.g. '0-2,5' (default: the first three, or all if fewer).")] = None,
         out: Annotated[Path | None, typer.Option(help="Output mp4 (default: <dataset>/preview.mp4).")] = None,
     ) -> None:
         """Render an mp4 of some episodes: every camera in a grid, with the step's safety labels.
@@ -225,7 +226,7 @@ def register(app: typer.Typer) -> None:
         """
         from mgdata.generate.preview import render_preview
 
-        chosen = parse_ids(episodes, "--episodes")
+        chosen = None if episodes is None else parse_ids(episodes, "--episodes")
         if not dataset.is_dir():
             raise DatasetError(f"{dataset}: no such dataset folder")
         target = out or dataset / "preview.mp4"

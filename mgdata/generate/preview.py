@@ -63,6 +63,10 @@ def render_preview(root: Path, episodes: tuple[int, ...] | None, out: Path) -> P
     for i in chosen:
         reader.record(i)  # a clear error for an index that does not exist
     schema = reader.schema
+    if not schema.cameras:
+        raise DatasetError(f"{root}: the dataset has no cameras (camera-free) to preview; render some "
+                           f"from its physics states first: mgdata render {root} --out DIR "
+                           "--cameras front --size 256")
     size = schema.image_height
     cells = len(schema.cameras) + 1
     rows = math.ceil(cells / COLUMNS)

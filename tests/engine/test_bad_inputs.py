@@ -302,6 +302,16 @@ def test_info_with_wrong_typed_fields(demo_copy: tuple[Path, Path], key: str, va
     assert check.returncode == 1 and "has the wrong type" in check.stdout and "Traceback" not in check.stderr
 
 
+def test_preview_of_a_camera_free_dataset_names_render(demo_copy: tuple[Path, Path], tmp_path: Path) -> None:
+    """A state view (no videos) has nothing to tile: one error line that says how to get pictures."""
+    _, out = demo_copy
+    state = tmp_path / "state"
+    assert mgdata_here("export", out, state, "--format", "state").returncode == 0
+    result = mgdata_here("preview", state, "--out", tmp_path / "p.mp4")
+    one_error(result, "no cameras (camera-free) to preview")
+    assert not (tmp_path / "p.mp4").exists()
+
+
 def test_validate_exit_codes(demo_copy: tuple[Path, Path], tmp_path: Path) -> None:
     _, out = demo_copy
     assert mgdata_here("validate", out).returncode == 0
