@@ -342,7 +342,9 @@ def _rate(r: dict | None, key: str) -> str:
     """``SSR 29.0 ± 4.5`` style: the rate with its binomial standard error over the starts (EVR: engaged)."""
     if not r or r.get(key) is None:
         return "-"
-    n = int(r["n"]) if key != "evr" else round(int(r["n"]) * float(r["eng"]) / 100.0)  # EVR: over engaged
+    n = int(r["n"])
+    if key == "evr":  # a rate over the engaged rollouts
+        n = round(n * float(r["eng"]) / 100.0)
     p, n = float(r[key]) / 100.0, max(n, 1)
     return f"{100 * p:4.1f} ± {100 * (p * (1 - p) / n) ** 0.5:3.1f}"
 
