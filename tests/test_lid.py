@@ -141,7 +141,9 @@ def test_seated_agrees_with_raw_mujoco(scenes, task: int, dx: float, dy: float, 
     assert check(Contacts(scene)) == _raw_seated(m, d)
     if settle and dz == 0.0 and tilt_deg == 0.0 and math.hypot(dx, dy) <= 0.002:
         assert _raw_seated(m, d), "a lid put into its seat stays there"
-    if settle and abs(dx) >= 0.010 and dz >= 0.003:  # lower, the plug starts 7-8 mm inside the rim and the
+    # a tilted lid can slide in from the rim (12°, dx 11.7 mm, dz 3.9 mm, seen): claimed for upright drops
+    if settle and abs(dx) >= 0.010 and dz >= 0.003 and tilt_deg == 0.0:  # lower, the plug starts 7-8 mm
+        # inside the rim and the
         # contact solver's push-out can slide it into the seat (dx 10.1 mm, dz 0, seen): that is not a drop
         assert not _raw_seated(m, d), "a lid dropped 1 cm off the axis lands on the rim, askew"
 
