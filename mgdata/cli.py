@@ -66,11 +66,13 @@ def _register_all() -> None:
     from mgdata.generate import commands as generate
     from mgdata.grasps import commands as grasps
     from mgdata.ltl import commands as ltl
+    from mgdata.objects import commands as objects
     from mgdata.record import commands as record
     from mgdata.scenarios import commands as scenarios
     from mgdata.teleop import commands as teleop
 
-    for module in (grasps, generate, scenarios, evaluate, record, ltl, metrics_commands, annotator, teleop):
+    for module in (grasps, objects, generate, scenarios, evaluate, record, ltl, metrics_commands, annotator,
+                   teleop):
         module.register(app)
 
 

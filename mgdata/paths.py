@@ -2,8 +2,8 @@
 
 Recipes and grasps ship inside the package (``mgdata/recipes``, ``mgdata/grasps/data``) and are read through
 :mod:`importlib.resources`. A *root* folder overrides them: ``MGDATA_ROOT`` (or ``mgdata --root DIR``) names a
-folder holding ``recipes/``, ``grasps/`` and ``datasets/`` (a checkout, or a user's own copy); run from a
-checkout (an editable install), the checkout is the root. ``MGDATA_CACHE`` moves the cache.
+folder holding ``recipes/``, ``grasps/``, ``objects/`` and ``datasets/`` (a checkout, or a user's own copy);
+run from a checkout (an editable install), the checkout is the root. ``MGDATA_CACHE`` moves the cache.
 
 Example::
 
@@ -57,6 +57,13 @@ def recipe_dirs() -> tuple[Path, ...]:
 def grasps_dir() -> Path:
     root = project_root()
     return root / "grasps" if root else _packaged("grasps", "data")
+
+
+def objects_dir() -> Path | None:
+    """The user's imported objects (``mgdata objects import``): ``<root>/objects``, or None without a root.
+    Entries are ``objects/<category>/<model>.toml`` (docs/objects.md)."""
+    root = project_root()
+    return root / "objects" if root else None
 
 
 def datasets_dir() -> Path:

@@ -145,30 +145,10 @@ def register(app: typer.Typer) -> None:
 
         Example: mgdata grasps generate 'jar/hinged_0*'
         """
-        from mgdata.grasps.candidates import candidates
-        from mgdata.grasps.config import load_grasp_config
-        from mgdata.sim.assets import get_model, model_names
+        from mgdata.sim.assets import model_names
 
         root = _db_dir(directory, create=True)
-        cand_cfg = load_grasp_config().candidates
-        keys = _match(models, model_names(), "object model")
-        with _category_locks(root, keys):
-            db = GraspDB.load_dir(root)  # read under the locks: nobody else writes these files now
-            for key in keys:
-                old = db.objects.get(key, ())
-                kept = [g for g in old if g.source != "generated"]
-                ids = {g.id for g in kept}
-                checked = {(g.id, g.frame): g for g in old if g.source == "generated"}
-                new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg)
-                       if g.id not in ids]
-                if not kept and not new:  # its generated grasps of an earlier generator go too
-                    db = db.without_object(key)
-                    typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
-                    continue
-                db = db.with_object(key, kept + new)
-                typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
-            for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
-                typer.echo(f"wrote {path}")
+        generate_grasps(root, _match(models, model_names(), "object model"))
 
     @grasps.command("validate")
     def validate(models: Models = None, all_: All = False, grasp_ids: GraspIds = None,
@@ -178,26 +158,62 @@ def register(app: typer.Typer) -> None:
 
         Example: mgdata grasps validate 'cup/*' --grasp 'side_*_r1'
         """
-        from mgdata.grasps.check import check_grasp
-        from mgdata.grasps.config import load_grasp_config
-
         root = _db_dir(directory)
-        settings = load_grasp_config()
         db = GraspDB.load_dir(root)
         keys = _match(models, list(db.keys), "model in the grasp DB") if models else list(db.keys)
-        with _category_locks(root, keys):
-            db = GraspDB.load_dir(root)  # again, under the locks (another run may have written them)
-            for key in keys:
-                updated: list[Grasp] = []
-                for g in db.grasps(key):
-                    chosen = not grasp_ids or any(fnmatch.fnmatchcase(g.id, p) for p in grasp_ids)
-                    if chosen and (g.status == "unvalidated" or all_):
-                        status, detail = check_grasp(key, g, settings.check)
-                        g = g.with_status(status, detail)
-                        typer.echo(f"{key} {g.id}: {status} ({detail})")
-                    updated.append(g)
-                db = db.with_object(key, updated)
-                db.write_dir(root, categories=[key.split("/", 1)[0]])
-        valid = sum(g.status == "valid" for k in keys for g in db.grasps(k))
-        total = sum(len(db.grasps(k)) for k in keys)
-        typer.echo(f"{valid} of {total} grasps valid over {len(keys)} model(s)")
+        validate_grasps(root, keys, all_=all_, grasp_ids=grasp_ids)
+
+
+def generate_grasps(root: Path, keys: list[str]) -> GraspDB:
+    """``grasps generate`` of the models ``keys`` into the grasp DB folder ``root`` (printing a line per
+    model and file); returns the DB as written."""
+    from mgdata.grasps.candidates import candidates
+    from mgdata.grasps.config import load_grasp_config
+    from mgdata.sim.assets import get_model
+
+    cand_cfg = load_grasp_config().candidates
+    with _category_locks(root, keys):
+        db = GraspDB.load_dir(root)  # read under the locks: nobody else writes these files now
+        for key in keys:
+            old = db.objects.get(key, ())
+            kept = [g for g in old if g.source != "generated"]
+            ids = {g.id for g in kept}
+            checked = {(g.id, g.frame): g for g in old if g.source == "generated"}
+            new = [_keep_result(g, checked) for g in candidates(get_model(key), cand_cfg)
+                   if g.id not in ids]
+            if not kept and not new:  # its generated grasps of an earlier generator go too
+                db = db.without_object(key)
+                typer.echo(f"{key}: no candidate grasps (too wide for the hand, or no usable geometry)")
+                continue
+            db = db.with_object(key, kept + new)
+            typer.echo(f"{key}: {len(new)} generated, {len(kept)} annotated kept")
+        for path in db.write_dir(root, categories={k.split("/", 1)[0] for k in keys}):
+            typer.echo(f"wrote {path}")
+    return db
+
+
+def validate_grasps(root: Path, keys: list[str], *, all_: bool = False,
+                    grasp_ids: list[str] | None = None) -> tuple[int, int]:
+    """``grasps validate`` of the models ``keys`` (each in the DB at ``root``), printing a line per grasp
+    checked; returns (valid, total) over those models."""
+    from mgdata.grasps.check import check_grasp
+    from mgdata.grasps.config import load_grasp_config
+
+    settings = load_grasp_config()
+    with _category_locks(root, keys):
+        db = GraspDB.load_dir(root)  # again, under the locks (another run may have written them)
+        for key in keys:
+            updated: list[Grasp] = []
+            for g in db.grasps(key):
+                chosen = not grasp_ids or any(fnmatch.fnmatchcase(g.id, p) for p in grasp_ids)
+                if chosen and (g.status == "unvalidated" or all_):
+                    status, detail = check_grasp(key, g, settings.check)
+                    g = g.with_status(status, detail)
+                    typer.echo(f"{key} {g.id}: {status} ({detail})")
+                updated.append(g)
+            db = db.with_object(key, updated)
+            db.write_dir(root, categories=[key.split("/", 1)[0]])
+    valid = sum(g.status == "valid" for k in keys for g in db.grasps(k))
+    total = sum(len(db.grasps(k)) for k in keys)
+    typer.echo(f"{valid} of {total} grasps valid over {len(keys)} model(s)")
+    return valid, total

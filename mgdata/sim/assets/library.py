@@ -3,6 +3,8 @@
 A model's parameters are drawn from a generator seeded by the SHA-256 of its own name, so ``jar/hinged_03``
 is the same object on every machine and does not change when variants are added. ``VARIANTS`` says how many
 numbered variants each kind exposes; raising a count grows the library without touching existing models.
+A user's own objects (``<root>/objects/<category>/<model>.toml``, :mod:`mgdata.sim.assets.entries`) join the
+library when it is first asked, read once per process (:func:`forget_user_objects` reads them again).
 
 Example::
 
@@ -18,14 +20,17 @@ import difflib
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 
 from mgdata.errors import AssetError
+from mgdata.paths import objects_dir
 from mgdata.sim.assets import boxes, jar, vessels
 from mgdata.sim.assets.bottle import build_bottle
 from mgdata.sim.assets.cabinet import build_cabinet
 from mgdata.sim.assets.container import build_container, build_lid
+from mgdata.sim.assets.entries import ObjectEntry, find_entries
 from mgdata.sim.assets.food import food_builder
 from mgdata.sim.assets.granular import build_dust, build_liquid
 from mgdata.sim.assets.holder import build_towel_holder
@@ -90,16 +95,42 @@ def register(model: ObjectModel) -> None:
     """Add a model built elsewhere (e.g. ``imported.mesh_model``) so scenes can name it.
 
     Raises:
-        AssetError: the name is taken by a procedural model or another registered one.
+        AssetError: the name is taken by a procedural model, a user object or another registered one.
     """
-    if model.name in _BY_NAME or model.name in _REGISTERED:
+    if model.name in _BY_NAME or model.name in _REGISTERED or model.name in user_objects():
         raise AssetError(f"object model name {model.name!r} is already taken")
     _REGISTERED[model.name] = model
 
 
+def user_objects() -> dict[str, ObjectEntry]:
+    """The entries of the root's ``objects/`` folder (:func:`mgdata.paths.objects_dir`), by name.
+
+    Raises:
+        AssetError: a malformed entry (naming its file and key), or one named like a procedural model.
+    """
+    directory = objects_dir()
+    return _entries(directory) if directory is not None else {}
+
+
+@cache
+def _entries(directory: Path) -> dict[str, ObjectEntry]:
+    found = find_entries(directory)
+    for name, entry in found.items():
+        if name in _BY_NAME:
+            raise AssetError(f"{entry.path}: {name!r} is a procedural model's name; rename the entry")
+    return found
+
+
+def forget_user_objects() -> None:
+    """Read the ``objects/`` folder again on the next question (after an import in this process)."""
+    _entries.cache_clear()
+    get_model.cache_clear()
+
+
 def categories() -> list[str]:
     """All categories, sorted."""
-    return sorted({k.category for k in KINDS} | {m.category for m in _REGISTERED.values()})
+    return sorted({k.category for k in KINDS} | {m.category for m in _REGISTERED.values()}
+                  | {n.split("/", 1)[0] for n in user_objects()})
 
 
 def model_names(category: str | None = None) -> list[str]:
@@ -110,7 +141,8 @@ def model_names(category: str | None = None) -> list[str]:
     """
     if category is not None and category not in categories():
         raise AssetError(f"unknown object category {category!r}; known: {', '.join(categories())}")
-    return sorted(n for n in (*_BY_NAME, *_REGISTERED) if category is None or n.split("/", 1)[0] == category)
+    names = (*_BY_NAME, *_REGISTERED, *user_objects())
+    return sorted(n for n in names if category is None or n.split("/", 1)[0] == category)
 
 
 @cache
@@ -118,13 +150,17 @@ def get_model(name: str) -> ObjectModel:
     """The model called ``name`` (built once per process, then cached).
 
     Raises:
-        AssetError: no such model; the message lists close names.
+        AssetError: no such model (the message lists close names), or a user object that cannot be built.
     """
     if name in _REGISTERED:
         return _REGISTERED[name]
     kind = _BY_NAME.get(name)
     if kind is None:
-        close = difflib.get_close_matches(name, [*_BY_NAME, *_REGISTERED], n=5, cutoff=0.5)
+        users = user_objects()
+        if name in users:
+            return users[name].model()
+        known = [*_BY_NAME, *_REGISTERED, *users]
+        close = difflib.get_close_matches(name, known, n=5, cutoff=0.5)
         hint = f"; did you mean {', '.join(close)}?" if close else f"; categories: {', '.join(categories())}"
         raise AssetError(f"unknown object model {name!r} (expected 'category/model'){hint}")
     seed = model_seed(name)

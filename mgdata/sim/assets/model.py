@@ -42,10 +42,22 @@ ROLLING_FRICTION = 0.0001
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """Vertices (n, 3) and faces (m, 3); empty ``faces`` means the convex hull of the vertices (collision)."""
+    """Vertices (n, 3) and faces (m, 3); empty ``faces`` means the convex hull of the vertices (collision).
+
+    ``texcoords`` (n, 2), one per vertex, in the OBJ convention (u right, v up from the image's bottom row),
+    for a visual mesh that carries a :class:`Texture`.
+    """
 
     verts: np.ndarray
     faces: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int32))
+    texcoords: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """An RGB image (h, w, 3) uint8, top row first, wrapped onto a textured mesh by its ``texcoords``."""
+
+    rgb: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +73,7 @@ class Geom:
     role: str = "both"
     rgba: tuple[float, float, float, float] | None = None
     mass: float = 0.0
+    texture: Texture | None = None
 
     @property
     def collides(self) -> bool:
@@ -269,9 +282,15 @@ class ObjectModel:
             mesh.uservert = g.mesh.verts.ravel().tolist()
             if len(g.mesh.faces):
                 mesh.userface = g.mesh.faces.ravel().tolist()
+            if g.mesh.texcoords is not None:  # MuJoCo's v runs down the image from its top row (as its OBJ
+                uv = np.asarray(g.mesh.texcoords, dtype=np.float64)  # loader does: v -> 1 - v)
+                mesh.usertexcoord = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).ravel().tolist()
             kwargs["meshname"] = name
         else:
             kwargs["size"] = [*g.size, 0.0, 0.0][:3]
+        if g.texture is not None:
+            kwargs["material"] = _add_texture(spec, name, g.texture)
+            kwargs["rgba"] = [1.0, 1.0, 1.0, 1.0]  # the image's own colours (a tint still multiplies them)
         if g.collides:
             kwargs["friction"] = [self.friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
             kwargs["condim"] = CONDIM
@@ -279,3 +298,14 @@ class ObjectModel:
             kwargs["contype"] = 0
             kwargs["conaffinity"] = 0
         body.add_geom(**kwargs)
+
+
+def _add_texture(spec: mujoco.MjSpec, name: str, texture: Texture) -> str:
+    """Add ``texture`` as a 2D texture and a material using it, both called ``name``; returns the name."""
+    rgb = np.ascontiguousarray(texture.rgb, dtype=np.uint8)
+    tex = spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=rgb.shape[1],
+                           height=rgb.shape[0], nchannel=3)
+    tex.data = rgb.tobytes()
+    material = spec.add_material(name=name, reflectance=0.0, specular=0.2)
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
+    return name
