@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from mgdata.console import plain_console
 from mgdata.errors import AssetError
@@ -80,19 +79,19 @@ def register(app: typer.Typer) -> None:
 
     @objects.command("list")
     def list_() -> None:
-        """The root's imported objects: name, size, mass, friction, texture, source.
+        """The root's imported objects, one line each: name, size, mass, friction, texture, source.
 
         Example: mgdata --root myroot objects list
         """
         from mgdata.sim.assets.library import user_objects
 
-        table = Table("model", "size (cm)", "mass (kg)", "friction", "texture", "source")
         directory = objects_dir()
+        console = plain_console()
         for name, entry in user_objects().items():
             model = entry.model()
             dims = " x ".join(f"{v * 100:.1f}" for v in model.size)
             texture = entry.texture.name if entry.texture else "embedded"
-            table.add_row(name, dims, f"{entry.mass:g}", f"{entry.friction:g}", texture, entry.source)
-        plain_console().print(table)
-        if directory is not None and not user_objects():
-            typer.echo(f"no objects in {directory}")
+            console.print(f"{name}  {dims} cm  {entry.mass:g} kg  friction {entry.friction:g}  "
+                          f"texture {texture}  from {entry.source or '?'}")
+        if not user_objects():
+            console.print(f"no objects in {directory}" if directory else "no project root (--root)")
