@@ -130,6 +130,12 @@ def test_a_textured_obj_becomes_an_object_a_family_draws(tmp_path: Path,
     for name in ("scanned_00.obj", "scanned_00.png", "scanned_00.toml"):
         assert (again / "objects" / "block" / name).read_bytes() == (folder / name).read_bytes()
     assert not (again / "grasps").exists()
+    run = mgdata_run(again, cache, "objects", "import", src, "--name", NAME, "--mass", "0.2", "--no-grasps")
+    assert run.returncode == 2 and "--replace" in run.stderr
+    run = mgdata_run(again, cache, "objects", "import", src, "--name", NAME, "--mass", "0.2", "--no-grasps",
+                     "--replace")
+    assert run.returncode == 0, run.stderr
+    assert "mass = 0.2\n" in (again / "objects" / "block" / "scanned_00.toml").read_text()
 
 
 def test_a_glb_with_its_texture_embedded_gives_the_same_object(tmp_path: Path) -> None:
