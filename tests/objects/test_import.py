@@ -49,6 +49,12 @@ def user_root(tmp: Path) -> Path:
     return root
 
 
+def model_bytes(model: mujoco.MjModel) -> bytes:
+    buf = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buf)
+    return buf.tobytes()
+
+
 def colour_share(pixels: np.ndarray, rgb: tuple[int, int, int]) -> float:
     """Share of ``pixels`` (n, 3) whose chromaticity is ``rgb``'s (lighting scales brightness, not hue)."""
     p = pixels.astype(float) / np.maximum(pixels.sum(axis=1, keepdims=True), 1.0)
@@ -125,10 +131,18 @@ def test_a_textured_obj_becomes_an_object_a_family_draws(tmp_path: Path,
 
     # the same file gives the same entry and the same compiled model
     again = tmp_path / "again"
+    shutil.copytree(root / "recipes", again / "recipes")  # the same physics settings for the comparison
     run = mgdata_run(again, cache, "objects", "import", src, "--name", NAME, "--mass", "0.15", "--no-grasps")
     assert run.returncode == 0, run.stderr
     for name in ("scanned_00.obj", "scanned_00.png", "scanned_00.toml"):
         assert (again / "objects" / "block" / name).read_bytes() == (folder / name).read_bytes()
+    monkeypatch.setenv("MGDATA_ROOT", str(again))
+    forget_user_objects()
+    try:
+        other = build_scene(task_with(ObjectPlacement("obj", NAME, (0.5, 0.0, 0.0), yaw=0.4)))
+        assert model_bytes(other.model) == model_bytes(m)  # the same compiled model from the other root
+    finally:
+        forget_user_objects()
     assert not (again / "grasps").exists()
     run = mgdata_run(again, cache, "objects", "import", src, "--name", NAME, "--mass", "0.2", "--no-grasps")
     assert run.returncode == 2 and "--replace" in run.stderr
