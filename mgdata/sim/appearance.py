@@ -1,8 +1,9 @@
 """Material-only recolouring of an object instance (the target axis of the OOD variants, docs/scenarios.md).
 
-The paper's recolour rule, applied to every geom of the instance (its ``rgba``; mgdata's assets carry no
-textures): ``albedo' = tint × (albedo + albedo_add)`` with ``albedo_add = 1 − luminance(albedo)``, clipped to
-[0, 1]. The additive term lifts a dark albedo towards white first, so the tint shows in full on any surface.
+The paper's recolour rule, applied to every geom of the instance (its ``rgba``; the procedural assets carry
+no textures, and an imported object's textured geom is white, so MuJoCo multiplies its image by the tint):
+``albedo' = tint × (albedo + albedo_add)`` with ``albedo_add = 1 − luminance(albedo)``, clipped to [0, 1].
+The additive term lifts a dark albedo towards white first, so the tint shows in full on any surface.
 Alpha, geometry, mass and friction are untouched: only ``geom_rgba`` of the compiled model differs.
 
 Example::

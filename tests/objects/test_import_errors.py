@@ -132,3 +132,16 @@ def test_an_existing_entry_is_kept_unless_replaced(root: Path, tmp_path: Path) -
     run = mgdata_here("objects", "import", textured_box(tmp_path / "src"), "--name", NAME, "--mass", "0.15")
     assert run.returncode == 2 and "exists already" in run.stderr and "pass --replace" in run.stderr
     assert entry.read_bytes() == before
+
+
+def test_an_entry_without_texture_whose_mesh_embeds_none_is_refused(root: Path, tmp_path: Path) -> None:
+    folder = root / "objects" / "block"
+    folder.mkdir(parents=True)
+    verts, faces, _ = box_triangles((0.04, 0.06, 0.08))
+    write_obj(folder / "scanned_00.obj", verts, faces, None)
+    entry = folder / "scanned_00.toml"
+    entry.write_text('category = "block"\nmesh = "scanned_00.obj"\nmass = 0.15\n')
+    run = mgdata_here("objects", "list")
+    assert run.returncode == 2 and run.stderr == (
+        f'error: {entry}: texture: missing, and mesh scanned_00.obj embeds no image (add texture = "<image '
+        'file>")\n'), run.stderr

@@ -70,10 +70,14 @@ class ObjectEntry:
     def model(self) -> ObjectModel:
         """The object model (coacd's decomposition comes from the cache after the first build)."""
         try:
-            return mesh_model(self.name, self.mesh, mass=self.mass, friction=self.friction, scale=self.scale,
-                              texture=self.texture)
+            model = mesh_model(self.name, self.mesh, mass=self.mass, friction=self.friction, scale=self.scale,
+                               texture=self.texture)
         except AssetError as err:
             raise AssetError(f"{self.path}: {err}") from None
+        if not model.geometry["textured"]:
+            raise AssetError(f"{self.path}: texture: missing, and mesh {self.mesh.name} embeds no image "
+                             "(add texture = \"<image file>\")")
+        return model
 
 
 def read_entry(path: Path) -> ObjectEntry:
@@ -159,7 +163,7 @@ def import_object(source: Path, name: str, directory: Path, *, mass: float, fric
         _write_png(files["texture"], surface.image)
         text = entry_text(category, f"{model}.obj", f"{model}.png", mass, friction, scale, Path(source).name)
         (staging / category / f"{model}.toml").write_text(text, encoding="utf-8")
-        read_entry(staging / category / f"{model}.toml")  # the stored form is what gets checked and decomposed
+        read_entry(staging / category / f"{model}.toml")  # the stored form is what is checked and decomposed
         mesh_model(name, files["mesh"], mass=mass, friction=friction, scale=scale, texture=files["texture"])
         for key in ("mesh", "texture"):
             moved.append(folder / files[key].name)

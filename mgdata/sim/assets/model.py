@@ -9,7 +9,8 @@ explicit: each colliding geom carries its share of its part's mass, proportional
 
 When added to a scene under instance name ``jar``, every geom, joint, site, mesh and child body is named
 ``jar/<local name>`` (``jar/lid``, ``jar/lid_hinge``); the instance's root body (created by the scene builder)
-is named ``jar``.
+is named ``jar``. A visual mesh may carry a :class:`Texture` (imported objects): its geom gets a material and
+a 2D texture of the same name (``jar/visual``).
 """
 
 from __future__ import annotations
