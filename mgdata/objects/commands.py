@@ -46,7 +46,8 @@ def register(app: typer.Typer) -> None:
             "--scale", help="Mesh units to metres (0.001 for a file in mm).")] = 1.0,
         texture: Annotated[Path | None, typer.Option(
             "--texture", help="Texture image, instead of the one the file names or embeds.")] = None,
-        replace: Annotated[bool, typer.Option("--replace", help="Overwrite an existing entry.")] = False,
+        replace: Annotated[bool, typer.Option(
+            "--replace", help="Overwrite an existing entry (and re-check all its grasps).")] = False,
         grasps: Annotated[bool, typer.Option(
             "--grasps/--no-grasps", help="Generate and validate its grasps after the import.")] = True,
     ) -> None:
@@ -75,7 +76,7 @@ def register(app: typer.Typer) -> None:
         if name not in db.objects:
             typer.echo(f"{name}: no grasps: the hand cannot pick it up (it can still stand in a scene)")
             return
-        validate_grasps(root, [name])
+        validate_grasps(root, [name], all_=replace)  # a replaced object's old results may not hold
 
     @objects.command("list")
     def list_() -> None:
