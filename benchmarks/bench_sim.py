@@ -26,7 +26,8 @@ A baseline from an older checkout (its own code builds the scene; ``--save-mjb``
 
     git worktree add /tmp/old <commit> && cd /tmp/old && PYTHONPATH=. MUJOCO_GL=egl python -c \
       "import sys; sys.path.insert(0, 'benchmarks'); import mujoco; from bench_sim import jar_task; \
-       from mgdata.sim.scene import build_scene; mujoco.mj_saveModel(build_scene(jar_task()).model, '/tmp/before.mjb')"
+       from mgdata.sim.scene import build_scene; \
+       mujoco.mj_saveModel(build_scene(jar_task()).model, '/tmp/before.mjb')"
 """
 
 from __future__ import annotations
@@ -156,8 +157,9 @@ def look_costs(scene: Scene, args: argparse.Namespace) -> None:
     rates = render_rates({name: rig.render for name, rig in rigs.items()}, args.rounds)
     med = {name: statistics.median(r) for name, r in rates.items()}
     ref = med.get("baseline", med["no textures"])
-    print("look: " + "; ".join(f"{name} {rate:.1f} obs/CPU-s (cost ×{ref / rate:.2f})" for name, rate in med.items())
-          + f"  [cost relative to {'the baseline scene' if 'baseline' in med else 'no textures'}; target ≤ ×1.3]")
+    arms = "; ".join(f"{name} {rate:.1f} obs/CPU-s (cost ×{ref / rate:.2f})" for name, rate in med.items())
+    against = "the baseline scene" if "baseline" in med else "no textures"
+    print(f"look: {arms}  [cost relative to {against}; target ≤ ×1.3]")
     if args.sheet:
         write_png(args.sheet.with_name(args.sheet.stem + "_look.png"),
                   np.concatenate([contact_sheet({f"{name} {c}": img for c, img in rig.render().items()})

@@ -26,8 +26,8 @@ import mujoco
 
 from mgdata.episode.timing import Timings
 from mgdata.errors import DatasetError
-from mgdata.record.episode import EpisodeMeta, EpisodeSink, Frame
 from mgdata.record.appearance import episode_appearance
+from mgdata.record.episode import EpisodeMeta, EpisodeSink, Frame
 from mgdata.record.physics import set_physics_state
 from mgdata.sim.appearance_draw import AppearanceSettings
 from mgdata.sim.renderer import CameraRig
@@ -42,7 +42,8 @@ class DeferredRenderSink:
             videos while frames arrive; ``writing``: its ``end_episode``).
     """
 
-    def __init__(self, sink: EpisodeSink, rig: CameraRig, appearance: AppearanceSettings | None = None) -> None:
+    def __init__(self, sink: EpisodeSink, rig: CameraRig,
+                 appearance: AppearanceSettings | None = None) -> None:
         self.sink = sink
         self.rig = rig
         self.appearance = appearance if appearance is not None and appearance.enabled else None

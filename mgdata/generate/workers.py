@@ -89,8 +89,8 @@ class Worker:
         self.config = config
         self.recipe = with_recovery(load_family_recipe(config.recipe_path), config.recovery)
         if self.recipe.appearance.enabled and not config.render_after and self.recipe.tasks.cameras:
-            raise RecipeError(f"{config.recipe_path}: [appearance] draws each episode's look when it is rendered "
-                              "after the gate; drop --render-during")
+            raise RecipeError(f"{config.recipe_path}: [appearance] draws each episode's look when it is "
+                              "rendered after the gate; drop --render-during")
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
         self._tasks: dict[tuple[int, str], TaskSpec] = {}

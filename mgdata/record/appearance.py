@@ -1,6 +1,7 @@
 """An episode's appearance draw from its stored frames: the draw of :mod:`mgdata.sim.appearance_draw` for the
 scene, seeded from the episode's recorded ``seed``, ``task_id`` and ``draw_index``, with distractors kept
-clear of everything that moves in those frames (the arm, the objects it carries). Generation (draw ``k = 0``) and
+clear of everything that moves in those frames (the arm, the objects it carries). Generation (draw
+``k = 0``) and
 ``mgdata render --appearance K`` (``k = 0 … K-1``) both come here, so they draw the same.
 
 Example::
@@ -39,5 +40,6 @@ def episode_appearance(settings: AppearanceSettings, model: mujoco.MjModel, stat
         set_physics_state(model, data, state)
         sweep.append(moving_spheres(model, data))
     set_physics_state(model, data, states[0])
-    return draw_appearance(settings, model, data, episode_seed(meta.seed, meta.task_id, meta.draw_index, k, extra),
+    seed = episode_seed(meta.seed, meta.task_id, meta.draw_index, k, extra)
+    return draw_appearance(settings, model, data, seed,
                            k, np.concatenate(sweep) if sweep else None)

@@ -48,8 +48,8 @@ from mgdata.record.physics import STATE_SPEC, model_from_bytes, set_physics_stat
 from mgdata.record.reader import DatasetReader
 from mgdata.record.video import VideoSettings
 from mgdata.record.writer import DatasetWriter
-from mgdata.sim.config import load_sim_config
 from mgdata.sim.appearance_draw import AppearanceSettings
+from mgdata.sim.config import load_sim_config
 from mgdata.sim.renderer import MAX_SIZE, CameraRig
 from mgdata.tasks.recipe import load_recipe
 

@@ -61,7 +61,8 @@ from mgdata.sim.textures import KINDS, texture
 
 APPEARANCE_STREAM = 0x41505052
 """Mixed into every draw's seed sequence, so appearance draws never coincide with physics draws."""
-SURFACES = {"table": ("table/top", "table_mat"), "floor": ("floor", "floor_mat"), "walls": ("wall_", "wall_mat")}
+SURFACES = {"table": ("table/top", "table_mat"), "floor": ("floor", "floor_mat"),
+            "walls": ("wall_", "wall_mat")}
 """Surface -> (geom name or prefix, material/texture name) in scenes built by ``mgdata.sim.materials``."""
 PALETTES: dict[str, tuple[tuple[float, float, float], ...]] = {
     "table": ((0.62, 0.47, 0.32), (0.76, 0.62, 0.45), (0.45, 0.32, 0.22), (0.85, 0.84, 0.80),
@@ -235,7 +236,7 @@ class AppearanceDraw:
 
 
 def shifted(rgb: Sequence[float], tint: Sequence[float]) -> np.ndarray:
-    """``rgb`` with its hue turned by ``tint[0]`` and saturation and value scaled by ``tint[1]``, ``tint[2]``."""
+    """``rgb`` with its hue turned by ``tint[0]``, its saturation and value scaled by ``tint[1:]``."""
     h, s, v = colorsys.rgb_to_hsv(*(float(x) for x in rgb))
     r, g, b = colorsys.hsv_to_rgb((h + tint[0]) % 1.0, min(1.0, s * tint[1]), min(1.0, v * tint[2]))
     return np.array([r, g, b])
@@ -275,7 +276,8 @@ def moving_spheres(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
 
 
 def draw_appearance(settings: AppearanceSettings, model: mujoco.MjModel, data: mujoco.MjData,
-                    seed: np.random.SeedSequence, k: int = 0, sweep: np.ndarray | None = None) -> AppearanceDraw:
+                    seed: np.random.SeedSequence, k: int = 0,
+                    sweep: np.ndarray | None = None) -> AppearanceDraw:
     """Draw an appearance for the scene ``model`` whose first frame is ``data`` (positions computed);
     ``sweep``: :func:`moving_spheres` over the episode's frames, which distractors keep clear of."""
     rng = np.random.default_rng(seed)
@@ -293,11 +295,13 @@ def draw_appearance(settings: AppearanceSettings, model: mujoco.MjModel, data: m
         azimuth = math.radians(float(rng.uniform(-180.0, 180.0) if name == "fill" else
                                      rng.uniform(-st.light_azimuth_deg, st.light_azimuth_deg)) + 70.0)
         elevation = math.radians(float(rng.uniform(*st.light_elevation_deg)))
-        lights[name] = {"dir": [-math.cos(elevation) * math.cos(azimuth), -math.cos(elevation) * math.sin(azimuth),
-                                -math.sin(elevation)], "diffuse": float(rng.uniform(*intensity))}
+        flat = math.cos(elevation)
+        lights[name] = {"dir": [-flat * math.cos(azimuth), -flat * math.sin(azimuth), -math.sin(elevation)],
+                        "diffuse": float(rng.uniform(*intensity))}
     lights["ambient"] = float(rng.uniform(*st.ambient))
-    cameras = {name: {"shift": tuple(float(x) for x in rng.uniform(-st.camera_shift, st.camera_shift, 3)),
-                      "turn_deg": tuple(float(x) for x in rng.uniform(-st.camera_turn_deg, st.camera_turn_deg, 3))}
+    shift, turn = st.camera_shift, st.camera_turn_deg
+    cameras = {name: {"shift": tuple(float(x) for x in rng.uniform(-shift, shift, 3)),
+                      "turn_deg": tuple(float(x) for x in rng.uniform(-turn, turn, 3))}
                for name in THIRD_PERSON}
     sweep = np.zeros((0, 4)) if sweep is None else sweep
     return AppearanceDraw(k, surfaces, tints, lights, cameras, _distractors(st, model, data, rng, sweep))
@@ -319,7 +323,8 @@ def _distractors(st: AppearanceSettings, model: mujoco.MjModel, data: mujoco.MjD
         kind = ("box", "cylinder", "sphere")[int(rng.integers(3))]
         size = float(rng.uniform(*st.distractor_size))
         yaw = float(rng.uniform(-math.pi, math.pi))
-        rgb = colorsys.hsv_to_rgb(float(rng.random()), float(rng.uniform(0.3, 0.9)), float(rng.uniform(0.4, 0.95)))
+        hue, sat, val = float(rng.random()), float(rng.uniform(0.3, 0.9)), float(rng.uniform(0.4, 0.95))
+        rgb = colorsys.hsv_to_rgb(hue, sat, val)
         for _try in range(30):
             xy = np.array([rng.uniform(*TABLE_BOUNDS[0]), rng.uniform(*TABLE_BOUNDS[1])])
             clear = all(np.linalg.norm(xy - p) >= st.distractor_clearance + size for p in keep_out)

@@ -1,7 +1,8 @@
 """What surfaces look like: the room's materials, the objects' finishes and the lights (``recipes/sim.toml``
 ``[look]``, :class:`Look`).
 
-* **Room.** Textures are grey and each geom's ``rgba`` colours them. The table top is wood, the floor laminate planks, the four walls plaster (:mod:`mgdata.sim.textures`,
+* **Room.** Textures are grey and each geom's ``rgba`` colours them. The table top is wood, the floor
+  laminate planks, the four walls plaster (:mod:`mgdata.sim.textures`,
   generated in code). The walls are visual only and stand where the environment rooms put theirs
   (``mgdata.sim.rooms``), which recolour them.
 * **Objects.** Every visible geom of an object without a material of its own gets its category's finish
@@ -62,7 +63,8 @@ class Look:
     Attributes:
         textures: false draws every surface in its flat colour (the look before materials; for comparisons).
         texture_size: side (pixels) of each generated texture.
-        table, floor, walls: base colours (RGB 0…1) of the table's wood, the floor's planks, the walls' plaster.
+        table, floor, walls: base colours (RGB 0…1) of the table's wood, the floor's planks, the walls'
+            plaster.
         floor_repeat: how often the floor texture tiles over the 8 m floor.
         key_light, fill_light: diffuse intensity of the two directional lights; key_dir, fill_dir: their
             directions (world).
@@ -105,7 +107,8 @@ class Look:
                 raise RecipeError(f"[look] {key} = {getattr(self, key)!r}: expected an intensity in [0, 1]")
         for key in ("key_dir", "fill_dir"):
             if getattr(self, key)[2] >= 0:
-                raise RecipeError(f"[look] {key} = {list(getattr(self, key))}: a light must point down (z < 0)")
+                raise RecipeError(f"[look] {key} = {list(getattr(self, key))}: a light must point down "
+                                  "(z < 0)")
         seen: dict[str, str] = {}
         for finish in FINISHES:
             for category in getattr(self, finish):
@@ -162,7 +165,8 @@ def dress_room(spec: mujoco.MjSpec, look: Look, floor_z: float) -> None:
     }
     for wall, ((cx, cy), (hx, hy)) in walls.items():
         spec.worldbody.add_geom(name=f"wall_{wall}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[hx, hy, h],
-                                pos=[cx, cy, floor_z + h], material="wall_mat", rgba=[*look.walls, 1.0], contype=0, conaffinity=0,
+                                pos=[cx, cy, floor_z + h], material="wall_mat", rgba=[*look.walls, 1.0],
+                                contype=0, conaffinity=0,
                                 group=VISUAL_GROUP, mass=0.0)
     vis = spec.visual
     vis.headlight.ambient = [look.ambient] * 3
@@ -183,7 +187,8 @@ def dress_objects(spec: mujoco.MjSpec, categories: Mapping[str, str], look: Look
     n = 0
     for geom in spec.geoms:
         head = geom.name.split("/", 1)[0]
-        if head not in categories or "/" not in geom.name or geom.group not in (0, VISUAL_GROUP) or geom.material:
+        seen = geom.group in (0, VISUAL_GROUP)
+        if head not in categories or "/" not in geom.name or not seen or geom.material:
             continue
         finish = "glass" if geom.rgba[3] < 1.0 else look.finish(categories[head])
         name = f"finish_{finish}"

@@ -154,7 +154,8 @@ class CameraRig:
                                           mujoco.mjtFontScale.mjFONTSCALE_100)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(model.light_castshadow.any())  # [look] shadows
+        shadows = bool(model.light_castshadow.any())  # recipes/sim.toml [look] shadows
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
         self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
         self._camera = mujoco.MjvCamera()

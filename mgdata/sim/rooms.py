@@ -310,7 +310,8 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
     ``wall_*`` geoms of ``mgdata.sim.materials``) into room ``name``: floor, sky and walls recoloured,
     windows, skirting, furniture along the walls and a tinted light; all visual only."""
     style = room_style(name)
-    spec.add_texture(name="room_floor", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=_BUILTINS[style.floor_builtin],
+    spec.add_texture(name="room_floor", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=_BUILTINS[style.floor_builtin],
                      rgb1=list(style.floor_a), rgb2=list(style.floor_b), width=256, height=256)
     floor = spec.material("floor_mat")
     floor.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "room_floor"

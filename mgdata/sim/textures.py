@@ -90,7 +90,8 @@ def _cardboard(size: int, rng: np.random.Generator) -> np.ndarray:
 def _fabric(size: int, rng: np.random.Generator) -> np.ndarray:
     """Open-cell foam / cloth: a fine weave with dark pores."""
     i = np.arange(size)
-    weave = 0.5 + 0.25 * (np.sin(2 * np.pi * i[:, None] * 24 / size) + np.sin(2 * np.pi * i[None, :] * 24 / size))
+    wave = np.sin(2 * np.pi * i * 24 / size)
+    weave = 0.5 + 0.25 * (wave[:, None] + wave[None, :])
     pores = noise(size, rng, 0.008) > 1.6
     return np.where(pores, 0.62, 0.86 + 0.10 * weave)
 

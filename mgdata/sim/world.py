@@ -39,7 +39,8 @@ TABLE_X = (-0.25, 1.05)
 TABLE_Y = (-0.75, 0.75)
 TABLE_THICKNESS = 0.04
 WORKSPACE_EXTENT = 2.0
-"""m, the model's ``stat.extent``: rendering clips at ``vis.map.znear`` (0.01) × this, 2 cm from a camera. Left
+"""m, the model's ``stat.extent``: rendering clips at ``vis.map.znear`` (0.01) × this, 2 cm from a camera.
+Left
 to MuJoCo it spans the walls (11 m), and the wrist camera lost the fingers 4–11 cm in front of it."""
 RESERVED_NAMES = frozenset({"table", "floor", "goal", "world", *robot.ROBOT_LINKS, robot.ROOT_BODY})
 

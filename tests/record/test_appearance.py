@@ -26,11 +26,12 @@ MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 
 
 def _generate(tmp: Path, name: str, appearance: bool) -> Path:
-    edits = (("[params]", "[appearance]\nenabled = true\ndistractors = [2, 3]\n\n[params]"),) if appearance else ()
+    table = "[appearance]\nenabled = true\ndistractors = [2, 3]\n\n[params]"
+    edits = (("[params]", table),) if appearance else ()
     recipe = jar_recipe(tmp / name, cameras=CAMERAS, image_size=48, edits=edits)
     out = tmp / name / "data"
-    proc = subprocess.run([*MGDATA, "generate", "--family", "jar", "--n", "1", "--tasks", "0", "--workers", "1",
-                           "--recipe", str(recipe), "--out", str(out)], capture_output=True, text=True,
+    proc = subprocess.run([*MGDATA, "generate", "--family", "jar", "--n", "1", "--tasks", "0", "--workers",
+                           "1", "--recipe", str(recipe), "--out", str(out)], capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return out
