@@ -137,7 +137,7 @@ def register(app: typer.Typer) -> None:
         appearance: Annotated[int, typer.Option(
             help="Render every episode K times, each with its own appearance draw (table, floor and wall "
                  "materials, object tints, lights, camera jitter, visual-only distractors; the family "
-                 "recipe's [appearance] settings, else their defaults): K x the episodes, physics the "
+                 "recipe's \\[appearance] settings, else their defaults): K x the episodes, physics the "
                  "source's bit for bit. 0: the scenes as stored.", metavar="K")] = 0,
         appearance_seed: Annotated[int, typer.Option(
             help="Mixed into every appearance draw's seed: another K draws of the same episodes.")] = 0,
