@@ -10,12 +10,24 @@ Prints, for the hinged jar with a cherry inside (the jar family's scene):
 * labelling (4 propositions) + monitor (3 DFAs) cost per control step (target ≤ 100 µs);
 * scene build and reset times, and a 63-sphere liquid scene's physics rate (CG + elliptic cone).
 
+* the cost of the look (``recipes/sim.toml [look]``: textures, lights, walls): the rig on the jar scene as
+  built now, interleaved with the same scene without textures, with the key light's shadows, and, given
+  ``--baseline-mjb`` (a jar scene saved by an earlier version, see ``--save-mjb``), that scene; ratios of
+  observations per CPU-second.
+
 ``--sheet PATH`` also writes the five views of the jar scene as a contact sheet PNG (docs/jar_views.png);
 ``--comparison PATH`` writes the reference path's views above the camera rig's and their difference ×4
 (docs/render_comparison.png).
 
     LP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_sim.py [--sheet docs/jar_views.png]
-        [--comparison docs/render_comparison.png]
+        [--comparison docs/render_comparison.png] [--baseline-mjb before.mjb]
+
+A baseline from an older checkout (its own code builds the scene; ``--save-mjb`` is the same for this one)::
+
+    git worktree add /tmp/old <commit> && cd /tmp/old && PYTHONPATH=. MUJOCO_GL=egl python -c \
+      "import sys; sys.path.insert(0, 'benchmarks'); import mujoco; from bench_sim import jar_task; \
+       from mgdata.sim.scene import build_scene; \
+       mujoco.mj_saveModel(build_scene(jar_task()).model, '/tmp/before.mjb')"
 """
 
 from __future__ import annotations
@@ -26,6 +38,7 @@ os.environ.setdefault("LP_NUM_THREADS", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported (mgdata does the same)
 
 import argparse
+import dataclasses
 import statistics
 import time
 from collections.abc import Callable
@@ -122,11 +135,47 @@ def physics_rate(scene: Scene, steps: int) -> float:
     return steps / (time.process_time() - t0)
 
 
+def look_costs(scene: Scene, args: argparse.Namespace) -> None:
+    """Rig observations per CPU-second of the jar scene against itself without textures, with shadows, and
+    (``--baseline-mjb``) against an earlier version's scene, interleaved."""
+    if args.save_mjb:
+        mujoco.mj_saveModel(scene.model, str(args.save_mjb))
+        print(f"wrote {args.save_mjb}")
+    scene.reset()
+    arms = {"look": scene}
+    for name, change in (("no textures", {"textures": False}), ("shadows", {"shadows": True})):
+        sim = dataclasses.replace(scene.sim, look=dataclasses.replace(scene.sim.look, **change))
+        arms[name] = build_scene(scene.task, sim=sim)
+        arms[name].reset()
+    rigs = {name: CameraRig(s) for name, s in arms.items()}
+    if args.baseline_mjb:
+        model = mujoco.MjModel.from_binary_path(str(args.baseline_mjb))
+        rig = CameraRig.of_model(model, CAMERA_NAMES, scene.task.image_size, scene.sim.render)
+        rig.data.qpos[:] = scene.data.qpos
+        mujoco.mj_forward(model, rig.data)
+        rigs["baseline"] = rig
+    rates = render_rates({name: rig.render for name, rig in rigs.items()}, args.rounds)
+    med = {name: statistics.median(r) for name, r in rates.items()}
+    ref = med.get("baseline", med["no textures"])
+    arms = "; ".join(f"{name} {rate:.1f} obs/CPU-s (cost ×{ref / rate:.2f})" for name, rate in med.items())
+    against = "the baseline scene" if "baseline" in med else "no textures"
+    print(f"look: {arms}  [cost relative to {against}; target ≤ ×1.3]")
+    if args.sheet:
+        write_png(args.sheet.with_name(args.sheet.stem + "_look.png"),
+                  np.concatenate([contact_sheet({f"{name} {c}": img for c, img in rig.render().items()})
+                                  for name, rig in rigs.items()]))
+    for rig in rigs.values():
+        rig.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sheet", type=Path, help="write the jar scene's five views here (PNG)")
     parser.add_argument("--comparison", type=Path, help="write before/after views (PNG)")
     parser.add_argument("--rounds", type=int, default=9, help="interleaved timing rounds of the render paths")
+    parser.add_argument("--baseline-mjb", type=Path, help="a jar scene (MJB) from an earlier version to time "
+                        "the look against")
+    parser.add_argument("--save-mjb", type=Path, help="write this version's jar scene (MJB) here")
     args = parser.parse_args()
 
     t0 = time.perf_counter()
@@ -162,6 +211,8 @@ def main() -> None:
         write_png(args.comparison, np.concatenate([
             contact_sheet({f"before {c}": img for c, img in before.items()}),
             contact_sheet({f"after {c}": img for c, img in images.items()}), contact_sheet(diff)]))
+
+    look_costs(scene, args)
 
     # Labelling + monitor on the states of a short moving rollout (contacts vary step to step).
     spec = scene.task.safety

@@ -7,7 +7,8 @@ recorded per-step MuJoCo states, and handed on to the real sink. The images are 
 during execution: the controller ends every control step with ``mj_forward``, and restoring a frame's state
 (:func:`mgdata.record.physics.set_physics_state`) ends with the same ``mj_forward`` of the same state, so the
 rig sees the same positions (tested in ``tests/engine/test_two_pass.py``). Failed attempts, which are
-dropped, cost no rendering at all.
+dropped, cost no rendering at all. With a recipe's ``[appearance]`` on, each episode is drawn with its own
+appearance (:mod:`mgdata.record.appearance`, draw ``k = 0``), recorded in ``variation.appearance``.
 
 Example::
 
@@ -25,8 +26,10 @@ import mujoco
 
 from mgdata.episode.timing import Timings
 from mgdata.errors import DatasetError
+from mgdata.record.appearance import episode_appearance
 from mgdata.record.episode import EpisodeMeta, EpisodeSink, Frame
 from mgdata.record.physics import set_physics_state
+from mgdata.sim.appearance_draw import AppearanceSettings
 from mgdata.sim.renderer import CameraRig
 
 
@@ -39,9 +42,11 @@ class DeferredRenderSink:
             videos while frames arrive; ``writing``: its ``end_episode``).
     """
 
-    def __init__(self, sink: EpisodeSink, rig: CameraRig) -> None:
+    def __init__(self, sink: EpisodeSink, rig: CameraRig,
+                 appearance: AppearanceSettings | None = None) -> None:
         self.sink = sink
         self.rig = rig
+        self.appearance = appearance if appearance is not None and appearance.enabled else None
         self.timings = Timings()
         self._data = mujoco.MjData(rig.model)
         self._frames: list[Frame] = []
@@ -57,6 +62,11 @@ class DeferredRenderSink:
     def end_episode(self, meta: EpisodeMeta) -> None:
         frames, self._frames = self._frames, []
         t, model = self.timings, self.rig.model
+        if self.appearance is not None and frames:
+            with t.measure("rendering"):
+                draw = episode_appearance(self.appearance, model, [f.physics_state for f in frames], meta)
+                self.rig.set_appearance(draw)
+            meta = dataclasses.replace(meta, variation={**meta.variation, "appearance": draw.record()})
         for frame in frames:
             with t.measure("rendering"):
                 set_physics_state(model, self._data, frame.physics_state)

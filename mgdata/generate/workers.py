@@ -41,7 +41,7 @@ from mgdata.engine.executor import AttemptResult, Executor
 from mgdata.engine.init_gate import base_task
 from mgdata.episode.deferred import DeferredRenderSink
 from mgdata.episode.timing import Timings
-from mgdata.errors import WorkerError
+from mgdata.errors import RecipeError, WorkerError
 from mgdata.grasps.db import GraspDB
 from mgdata.pool_worker import die_with_parent
 from mgdata.record.episode import EpisodeSink
@@ -88,6 +88,9 @@ class Worker:
 
         self.config = config
         self.recipe = with_recovery(load_family_recipe(config.recipe_path), config.recovery)
+        if self.recipe.appearance.enabled and not config.render_after and self.recipe.tasks.cameras:
+            raise RecipeError(f"{config.recipe_path}: [appearance] draws each episode's look when it is "
+                              "rendered after the gate; drop --render-during")
         self.schema = dataset_schema(self.recipe)
         self.grasps = GraspDB.load_dir(config.grasps_dir)
         self._tasks: dict[tuple[int, str], TaskSpec] = {}
@@ -129,7 +132,7 @@ class Worker:
         stager = EpisodeStager(path, self.schema, self.config.video)
         setup = Timings()
         ex, rig = self.executor(task_id, condition or attempt_condition(self.config.condition, draw), setup)
-        deferred = DeferredRenderSink(stager, rig) if rig is not None else None
+        deferred = DeferredRenderSink(stager, rig, self.recipe.appearance) if rig is not None else None
         sink: EpisodeSink = deferred if deferred is not None else stager
         try:
             result = ex.run(draw, sink, keep_failed=self.config.keep_failed, start=start, origin=origin,

@@ -134,11 +134,20 @@ def register(app: typer.Typer) -> None:
         cameras: Annotated[str | None, typer.Option(
             help="Comma-separated cameras, e.g. front,wrist (default: the source's).")] = None,
         codec: Annotated[str | None, typer.Option(help="h264 or av1 (default: the source's).")] = None,
+        appearance: Annotated[int, typer.Option(
+            help="Render every episode K times, each with its own appearance draw (table, floor and wall "
+                 "materials, object tints, lights, camera jitter, visual-only distractors; the family "
+                 "recipe's \\[appearance] settings, else their defaults): K x the episodes, physics the "
+                 "source's bit for bit. 0: the scenes as stored.", metavar="K")] = 0,
+        appearance_seed: Annotated[int, typer.Option(
+            help="Mixed into every appearance draw's seed: another K draws of the same episodes.")] = 0,
     ) -> None:
-        """Re-render a dataset from its stored physics states: other cameras, size or codec; labels,
-        states, actions and metadata carried over. Re-run the same command to continue an interrupted one.
+        """Re-render a dataset from its stored physics states: other cameras, size or codec, or K
+        appearance draws per episode (augmentation at render cost); labels, states, actions and metadata
+        carried over. Re-run the same command to continue an interrupted one.
 
         Example: mgdata render datasets/jar --out datasets/jar_224 --size 224 --cameras front,wrist
+        Example: mgdata render datasets/jar --out datasets/jar_x4 --appearance 4
         """
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
@@ -146,7 +155,8 @@ def register(app: typer.Typer) -> None:
         from mgdata.record.rerender import RenderJob, rerender
 
         cams = tuple(c.strip() for c in cameras.split(",") if c.strip()) if cameras is not None else None
-        job = RenderJob(dataset, out, size=size, cameras=cams, codec=codec)
+        job = RenderJob(dataset, out, size=size, cameras=cams, codec=codec, appearance=appearance,
+                        appearance_seed=appearance_seed)
         console = plain_console()
         progress = Progress(TextColumn("render"), BarColumn(),
                             TextColumn("{task.completed}/{task.total} episodes"), TimeElapsedColumn(),

@@ -13,6 +13,13 @@ The new dataset is built in ``<out>.partial`` and renamed to ``out`` when every 
 named ``out`` is always complete; running the same command again after an interruption continues the
 partial one (each episode is committed whole).
 
+With ``appearance = K`` each source episode is rendered K times, with appearance draws ``k = 0 … K-1``
+(:mod:`mgdata.record.appearance`; the family recipe's ``[appearance]`` settings if it enables them, else
+their documented defaults): new episode ``i`` is source episode ``i // K`` in draw ``i % K``, its
+``variation.appearance`` records the draw, and the physics states, actions and labels are the source's,
+bit for bit. Data augmentation at render cost only. The recorded attempt count is multiplied by K (each
+render of an attempt counts as one), so the yield stays the source's.
+
 Example::
 
     job = RenderJob(Path("datasets/jar"), Path("datasets/jar_224"), size=224, cameras=("front", "wrist"))
@@ -30,9 +37,10 @@ from typing import Any
 
 import mujoco
 
-from mgdata.errors import DatasetError, OutputError
+from mgdata.errors import DatasetError, MgdataError, OutputError
 from mgdata.lock import output_lock
 from mgdata.record import layout
+from mgdata.record.appearance import episode_appearance
 from mgdata.record.episode import DatasetSchema, Frame
 from mgdata.record.integrity import check_intact
 from mgdata.record.metafiles import read_info
@@ -40,8 +48,13 @@ from mgdata.record.physics import STATE_SPEC, model_from_bytes, set_physics_stat
 from mgdata.record.reader import DatasetReader
 from mgdata.record.video import VideoSettings
 from mgdata.record.writer import DatasetWriter
+from mgdata.sim.appearance_draw import AppearanceSettings
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.renderer import MAX_SIZE, CameraRig
+from mgdata.tasks.recipe import load_recipe
+
+MAX_APPEARANCE = 100
+"""Most appearance draws ``mgdata render --appearance`` makes per episode."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +67,8 @@ class RenderJob:
         size: image side in pixels (``None``: the source's).
         cameras: camera names, in output order (``None``: the source's).
         codec: video codec (``None``: the source's, with its settings).
+        appearance: appearance draws per episode (0: the scenes as stored).
+        appearance_seed: mixed into every draw's seed (another K draws of the same episodes).
     """
 
     source: Path
@@ -61,6 +76,8 @@ class RenderJob:
     size: int | None = None
     cameras: tuple[str, ...] | None = None
     codec: str | None = None
+    appearance: int = 0
+    appearance_seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -102,22 +119,40 @@ def _check(job: RenderJob, reader: DatasetReader) -> tuple[DatasetSchema, VideoS
     if unknown:
         raise DatasetError(f"unknown camera(s) {', '.join(unknown)}; the dataset's scenes have cameras "
                            f"{', '.join(known)}")
+    if not 0 <= job.appearance <= MAX_APPEARANCE:
+        raise DatasetError(f"--appearance {job.appearance}: expected 0 (none) to {MAX_APPEARANCE} draws per "
+                           "episode")
     video = reader.video if job.codec in (None, reader.video.codec) else \
         VideoSettings(codec=job.codec, gop=reader.video.gop)
     return replace(src, cameras=tuple(cameras), image_height=size, image_width=size), video
 
 
-def _origin(job: RenderJob, schema: DatasetSchema, video: VideoSettings) -> dict[str, Any]:
+def _origin(job: RenderJob, schema: DatasetSchema, video: VideoSettings,
+            appearance: AppearanceSettings | None) -> dict[str, Any]:
     """The ``mgdata.rendered_from`` record of the new dataset (also how a partial one is recognised)."""
-    return {"source": str(Path(job.source).resolve()), "cameras": list(schema.cameras),
-            "size": schema.image_height, "codec": video.codec}
+    origin = {"source": str(Path(job.source).resolve()), "cameras": list(schema.cameras),
+              "size": schema.image_height, "codec": video.codec}
+    if appearance is not None:
+        origin["appearance"] = {"draws": job.appearance, "seed": job.appearance_seed, **appearance.to_info()}
+    return origin
+
+
+def appearance_settings(reader: DatasetReader) -> AppearanceSettings:
+    """The family recipe's ``[appearance]`` if it enables it, else the defaults (enabled)."""
+    try:
+        recipe = load_recipe(reader.record(0).meta.family)
+    except MgdataError:  # the family's recipe is not installed here: the documented defaults
+        recipe = None
+    if recipe is not None and recipe.appearance.enabled:
+        return recipe.appearance
+    return replace(AppearanceSettings(), enabled=True)
 
 
 def _open(job: RenderJob, reader: DatasetReader, schema: DatasetSchema,
-          video: VideoSettings) -> DatasetWriter:
+          video: VideoSettings, appearance: AppearanceSettings | None) -> DatasetWriter:
     """Continue the partial dataset of the same job, or start a new one."""
     part = partial_path(job.out)
-    origin = _origin(job, schema, video)
+    origin = _origin(job, schema, video, appearance)
     if (part / layout.INFO_PATH).exists():
         if read_info(part / layout.INFO_PATH)["mgdata"].get("rendered_from") == origin:
             return DatasetWriter.open(part, schema)
@@ -182,33 +217,46 @@ def _rerender(job: RenderJob, out: Path, on_episode: Callable[[int, int], None] 
     check_intact(Path(job.source), "nothing was rendered")
     reader = DatasetReader(Path(job.source))
     schema, video = _check(job, reader)
+    appearance = appearance_settings(reader) if job.appearance else None
     start = time.perf_counter()
-    writer = _open(job, reader, schema, video)
+    writer = _open(job, reader, schema, video, appearance)
     rigs = _Rigs(schema.cameras, schema.image_height)
+    per = max(job.appearance, 1)
+    total = reader.num_episodes * per
     first, frames = writer.num_episodes, 0
     try:
-        writer.record_attempts(reader.info["mgdata"].get("attempts") or 0)
+        writer.record_attempts((reader.info["mgdata"].get("attempts") or 0) * per)
         if on_episode is not None:
-            on_episode(first, reader.num_episodes)
-        for e in range(first, reader.num_episodes):
-            frames += _render_episode(reader, e, writer, rigs)
+            on_episode(first, total)
+        for i in range(first, total):
+            look = None if appearance is None else (appearance, i % per, job.appearance_seed)
+            frames += _render_episode(reader, i // per, writer, rigs, look)
             if on_episode is not None:
-                on_episode(e + 1, reader.num_episodes)
+                on_episode(i + 1, total)
     finally:
         rigs.close()
         writer.close()
     os.replace(partial_path(out), out)
-    return RenderSummary(out, reader.num_episodes - first, frames, reader.num_episodes,
-                         time.perf_counter() - start)
+    return RenderSummary(out, total - first, frames, total, time.perf_counter() - start)
 
 
-def _render_episode(reader: DatasetReader, e: int, writer: DatasetWriter, rigs: _Rigs) -> int:
-    """Render and commit episode ``e`` of ``reader``; returns its frame count."""
+def _render_episode(reader: DatasetReader, e: int, writer: DatasetWriter, rigs: _Rigs,
+                    look: tuple[AppearanceSettings, int, int] | None = None) -> int:
+    """Render and commit episode ``e`` of ``reader`` (``look``: appearance settings, draw ``k`` and user
+    seed); returns its frame count."""
     rec, ep = reader.record(e), reader.episode(e)
     assert rec.scene is not None and ep.physics_state is not None  # checked by _check for the dataset
     mjb = reader.scene_mjb(e)
     rig, data = rigs.get(rec.scene, mjb, reader.root)
     writer.set_scene(mjb)
+    meta = ep.meta
+    if look is not None:
+        settings, k, seed = look
+        draw = episode_appearance(settings, rig.model, list(ep.physics_state), meta, k, seed)
+        rig.set_appearance(draw)
+        meta = replace(meta, variation={**meta.variation, "appearance": {**draw.record(), "seed": seed}})
+    else:
+        rig.set_appearance(None)
     try:
         for t in range(ep.length):
             set_physics_state(rig.model, data, ep.physics_state[t])
@@ -218,7 +266,7 @@ def _render_episode(reader: DatasetReader, e: int, writer: DatasetWriter, rigs: 
                                    physics_state=ep.physics_state[t],
                                    executed_action=None if ep.executed_action is None
                                    else ep.executed_action[t]))
-        writer.end_episode(ep.meta)
+        writer.end_episode(meta)
     except BaseException:
         writer.discard_episode()
         raise

@@ -5,7 +5,8 @@ Tables, each read into the dataclass that uses it: ``[physics]`` →
 ``[gripper]`` → :class:`~mgdata.sim.gripper.GripperConfig` (servo retuning, finger contact model),
 ``[contact]`` → :class:`~mgdata.sim.object_contact.ObjectContact` (object geoms' contact model),
 ``[cameras]`` → :class:`~mgdata.sim.cameras.CameraLayout` (placements, field of view, default image size) and
-``[render]`` → :class:`~mgdata.sim.render_config.RenderConfig`.
+``[render]`` → :class:`~mgdata.sim.render_config.RenderConfig` and ``[look]`` →
+:class:`~mgdata.sim.materials.Look` (materials, finishes, lights).
 Every key is optional (the dataclass default applies); an unknown table or key, a value of the wrong type or
 a value out of range is one :class:`~mgdata.errors.RecipeError` naming the file and the key.
 
@@ -26,6 +27,7 @@ from mgdata.paths import recipes_dir
 from mgdata.settings import load_settings, settings_from_dict
 from mgdata.sim.cameras import CameraLayout
 from mgdata.sim.gripper import GripperConfig
+from mgdata.sim.materials import Look
 from mgdata.sim.object_contact import ObjectContact
 from mgdata.sim.physics_config import Physics
 from mgdata.sim.render_config import RenderConfig
@@ -42,6 +44,7 @@ class SimConfig:
     contact: ObjectContact = field(default_factory=ObjectContact)
     cameras: CameraLayout = field(default_factory=CameraLayout)
     render: RenderConfig = field(default_factory=RenderConfig)
+    look: Look = field(default_factory=Look)
 
 
 def sim_config_from_dict(raw: Mapping[str, Any], source: str = "<dict>") -> SimConfig:

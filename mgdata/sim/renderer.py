@@ -28,6 +28,7 @@ import numpy as np
 
 from mgdata.errors import SceneError
 from mgdata.sim import robot
+from mgdata.sim.appearance_draw import AppearanceDraw
 from mgdata.sim.cameras import CAMERA_NAMES
 from mgdata.sim.render_config import RenderConfig
 from mgdata.sim.scene import Scene
@@ -153,7 +154,8 @@ class CameraRig:
                                           mujoco.mjtFontScale.mjFONTSCALE_100)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        shadows = bool(model.light_castshadow.any())  # recipes/sim.toml [look] shadows
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
         self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
         self._camera = mujoco.MjvCamera()
@@ -161,6 +163,25 @@ class CameraRig:
         self._ids = [model.camera(c).id for c in self.cameras]
         self._options = [camera_option(model, cam, config) for cam in self._ids]
         self._buffer = np.empty((self.size, self.size, 3), dtype=np.uint8)
+        self._look: tuple[mujoco.MjModel, mujoco.MjData, AppearanceDraw] | None = None
+
+    def set_appearance(self, draw: AppearanceDraw | None) -> None:
+        """Render with ``draw`` applied to a copy of the model (``None``: as built). Physics never sees it:
+        each frame's state is copied into the rig's own data, whose camera and light poses are recomputed
+        from the copy."""
+        if self._context is None:
+            raise SceneError("CameraRig.set_appearance() called after close()")
+        self._gl.make_current()
+        if draw is None:
+            if self._look is not None:
+                for tex in range(self.model.ntex):  # put the model's own pixels back
+                    mujoco.mjr_uploadTexture(self.model, self._context, tex)
+            self._look = None
+            return
+        look = copy.copy(self.model)
+        for tex in draw.apply(look):
+            mujoco.mjr_uploadTexture(look, self._context, tex)
+        self._look = (look, mujoco.MjData(look), draw)
 
     def render(self, data: mujoco.MjData | None = None) -> dict[str, np.ndarray]:
         """One RGB image (size, size, 3) uint8 per camera, of ``data`` (default: the scene's current data;
@@ -170,11 +191,19 @@ class CameraRig:
         _free_orphans()
         self._gl.make_current()
         model, data = self.model, self.data if data is None else data
+        draw = None
+        if self._look is not None:
+            model, view, draw = self._look
+            mujoco.mj_copyData(view, model, data)
+            mujoco.mj_camlight(model, view)
+            data = view
         out: dict[str, np.ndarray] = {}
         for name, cam, option in zip(self.cameras, self._ids, self._options, strict=True):
             self._camera.fixedcamid = cam
             mujoco.mjv_updateScene(model, data, option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL,
                                    self._scene)
+            if draw is not None:
+                draw.add_distractors(self._scene)
             mujoco.mjr_render(self._rect, self._scene, self._context)
             mujoco.mjr_readPixels(self._buffer, None, self._rect, self._context)
             out[name] = self._buffer[::-1].copy()  # OpenGL's rows run bottom to top

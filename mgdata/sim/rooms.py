@@ -1,7 +1,8 @@
 """Procedural rooms around the tabletop: the environment axis of the OOD variants (docs/scenarios.md).
 
 A room is built only from MuJoCo primitives and builtin textures (no downloaded assets): it recolours the
-floor and the sky and adds walls, windows, furniture and a light around the table. Everything it adds is
+floor, the sky and the plain scene's walls (``mgdata.sim.materials``) and adds skirting, windows, furniture
+and a light around the table. Everything it adds is
 visual only (``contype = conaffinity = 0``, no mass, no joints, static in the world body), so the robot, the
 table and the objects move exactly as without it (``tests/test_scenarios.py`` checks the trajectory bit for
 bit). The floor plane keeps its geometry and friction; only its texture changes.
@@ -20,14 +21,10 @@ from dataclasses import dataclass
 import mujoco
 
 from mgdata.errors import SceneError
+from mgdata.sim.materials import ROOM_X, ROOM_Y, WALL_HEIGHT
 
 RGB = tuple[float, float, float]
 
-ROOM_X = (-2.3, 3.1)
-"""The walls' x positions (m, world): behind the robot and behind the front camera."""
-ROOM_Y = (-2.6, 2.6)
-WALL_HEIGHT = 3.0
-"""m above the floor."""
 ROOM_GROUP = 2
 """Geom group of room geoms (drawn by default, like the objects' visual geoms)."""
 
@@ -309,14 +306,17 @@ def room_style(name: str) -> RoomStyle:
 
 
 def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
-    """Turn ``spec``'s plain surroundings (the ``floor_tex`` and ``sky`` textures of ``mgdata.sim.world``)
-    into room ``name``: floor and sky recoloured, four walls with windows, furniture along the walls and a
-    tinted light; all visual only."""
+    """Turn ``spec``'s plain surroundings (the ``floor_mat`` material, the ``sky`` texture and the
+    ``wall_*`` geoms of ``mgdata.sim.materials``) into room ``name``: floor, sky and walls recoloured,
+    windows, skirting, furniture along the walls and a tinted light; all visual only."""
     style = room_style(name)
-    floor = spec.texture("floor_tex")
-    floor.builtin = _BUILTINS[style.floor_builtin]
-    floor.rgb1, floor.rgb2 = list(style.floor_a), list(style.floor_b)
-    spec.material("floor_mat").texrepeat = [style.floor_repeat, style.floor_repeat]
+    spec.add_texture(name="room_floor", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=_BUILTINS[style.floor_builtin],
+                     rgb1=list(style.floor_a), rgb2=list(style.floor_b), width=256, height=256)
+    floor = spec.material("floor_mat")
+    floor.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "room_floor"
+    floor.texrepeat = [style.floor_repeat, style.floor_repeat]
+    spec.geom("floor").rgba = [1.0, 1.0, 1.0, 1.0]
     sky = spec.texture("sky")
     sky.rgb1, sky.rgb2 = list(style.sky_top), list(style.sky_bottom)
     colours = {
@@ -328,8 +328,6 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         "leaf": (0.18, 0.45, 0.16),
     }
     body = spec.worldbody  # static geoms of the world body: no new body, so the state size is unchanged
-    h = WALL_HEIGHT / 2.0
-    zc = floor_z + h
     (x0, x1), (y0, y1) = ROOM_X, ROOM_Y
     walls = {
         "back": ((x0, 0.0), (0.05, (y1 - y0) / 2.0)),
@@ -338,7 +336,7 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         "right": ((0.5 * (x0 + x1), y0), ((x1 - x0) / 2.0, 0.05)),
     }
     for wall, ((cx, cy), (hx, hy)) in walls.items():
-        _geom(body, f"room/wall_{wall}", "box", (hx, hy, h), (cx, cy, zc), style.wall)
+        spec.geom(f"wall_{wall}").rgba = [*style.wall, 1.0]  # the plain scene's walls (mgdata.sim.materials)
         _geom(
             body,
             f"room/skirting_{wall}",

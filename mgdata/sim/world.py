@@ -24,6 +24,7 @@ from mgdata.sim import robot
 from mgdata.sim.appearance import apply_tint
 from mgdata.sim.assets import ObjectModel, get_model
 from mgdata.sim.cameras import add_cameras
+from mgdata.sim.materials import Look, dress_objects, dress_room
 from mgdata.sim.particles import add_particles, particle_models
 from mgdata.sim.rooms import add_room
 from mgdata.sim.taskspec import TaskSpec
@@ -37,6 +38,10 @@ FLOOR_Z = TABLE_TOP_Z - TABLE_HEIGHT
 TABLE_X = (-0.25, 1.05)
 TABLE_Y = (-0.75, 0.75)
 TABLE_THICKNESS = 0.04
+WORKSPACE_EXTENT = 2.0
+"""m, the model's ``stat.extent``: rendering clips at ``vis.map.znear`` (0.01) × this, 2 cm from a camera.
+Left
+to MuJoCo it spans the walls (11 m), and the wrist camera lost the fingers 4–11 cm in front of it."""
 RESERVED_NAMES = frozenset({"table", "floor", "goal", "world", *robot.ROBOT_LINKS, robot.ROOT_BODY})
 
 
@@ -66,39 +71,29 @@ def _check_names(task: TaskSpec) -> None:
             )
 
 
-def _add_environment(spec: mujoco.MjSpec, size: int) -> None:
+def _add_environment(spec: mujoco.MjSpec, size: int, look: Look) -> None:
     vis = spec.visual
     vis.global_.offwidth = max(640, size)
     vis.global_.offheight = max(480, size)
     vis.quality.offsamples = 0
     vis.quality.shadowsize = 1024
-    vis.headlight.ambient = [0.35, 0.35, 0.35]
-    vis.headlight.diffuse = [0.45, 0.45, 0.45]
-    vis.headlight.specular = [0.0, 0.0, 0.0]
+    spec.stat.extent = WORKSPACE_EXTENT  # fixed, so the walls do not push the near plane past the fingers
     spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.78, 0.82, 0.86],
                      rgb2=[0.45, 0.50, 0.56], width=64, height=64)
-    spec.add_texture(name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.32, 0.34, 0.36],
-                     rgb2=[0.26, 0.28, 0.30], width=256, height=256)
-    floor_mat = spec.add_material(name="floor_mat", texrepeat=[8.0, 8.0], reflectance=0.0)
-    floor_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor_tex"
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4.0, 4.0, 0.1],
-                            pos=[0.0, 0.0, FLOOR_Z], material="floor_mat")
+                            pos=[0.0, 0.0, FLOOR_Z])
     table = spec.worldbody.add_body(name="table")
     cx, cy = (TABLE_X[0] + TABLE_X[1]) / 2.0, (TABLE_Y[0] + TABLE_Y[1]) / 2.0
     hx, hy = (TABLE_X[1] - TABLE_X[0]) / 2.0, (TABLE_Y[1] - TABLE_Y[0]) / 2.0
     table.add_geom(name="table/top", type=mujoco.mjtGeom.mjGEOM_BOX, size=[hx, hy, TABLE_THICKNESS / 2.0],
-                   pos=[cx, cy, TABLE_TOP_Z - TABLE_THICKNESS / 2.0], rgba=[0.62, 0.47, 0.32, 1.0],
-                   friction=[0.8, 0.005, 0.0001])
+                   pos=[cx, cy, TABLE_TOP_Z - TABLE_THICKNESS / 2.0], friction=[0.8, 0.005, 0.0001])
     leg_h = (TABLE_HEIGHT - TABLE_THICKNESS) / 2.0
     for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
         table.add_geom(name=f"table/leg{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, leg_h],
                        pos=[cx + sx * (hx - 0.05), cy + sy * (hy - 0.05), FLOOR_Z + leg_h],
                        rgba=[0.45, 0.33, 0.22, 1.0], contype=0, conaffinity=0)
-    spec.worldbody.add_light(name="key", pos=[0.4, -0.6, 2.5], dir=[0.0, 0.25, -1.0],
-                             diffuse=[0.55, 0.55, 0.55], specular=[0.1, 0.1, 0.1], castshadow=False,
-                             type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    dress_room(spec, look, FLOOR_Z)
 
 
 def _add_goal(spec: mujoco.MjSpec, task: TaskSpec) -> None:
@@ -133,7 +128,7 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
     base = spec.body(robot.ROOT_BODY)
     base.pos = list(task.robot_base)
     base.quat = yaw_quat(task.robot_base_yaw)
-    _add_environment(spec, task.image_size)
+    _add_environment(spec, task.image_size, sim.look)
     for obj in task.objects:
         model = models[obj.name]
         if model.particles is not None:
@@ -146,6 +141,7 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
     add_particles(spec, task, models, particle_models(models))
     for name, tint in task.tint.items():  # the target OOD variant: material only
         apply_tint(spec, name, tint)
+    dress_objects(spec, {name: models[name].category for name in models}, sim.look)
     if task.room:  # the environment OOD variant: visual only
         add_room(spec, task.room, FLOOR_Z)
     _add_goal(spec, task)

@@ -19,6 +19,7 @@ Top-level keys and tables::
     [params]      skeleton tunables (copied into every TaskSpec.params)
     [ood]         how the OOD variants are built (mgdata.tasks.ood; optional, docs/scenarios.md)
     [recovery]    perturbed execution with corrective labels (mgdata.tasks.recovery; optional, off)
+    [appearance]  per-episode appearance draws for the cameras (mgdata.sim.appearance_draw; optional, off)
 
 ``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
 (:class:`mgdata.tasks.recipe_keys.RecipeKeys`); :func:`check_recipe_keys` checks them (names, types, ranges)
@@ -45,6 +46,7 @@ from typing import Any
 
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import recipe_dirs, recipes_dir
+from mgdata.sim.appearance_draw import AppearanceSettings, parse_appearance
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
 from mgdata.tasks.layout_rules import Layout, parse_layout
 from mgdata.tasks.ood import OodSettings, parse_ood
@@ -92,6 +94,8 @@ class Recipe:
         digest: hash of the recipe and spec files (a dataset records it; resume requires the same).
         ood: how its OOD variants are built (``[ood]``, :mod:`mgdata.tasks.ood`; defaults if absent).
         recovery: perturbed execution (``[recovery]``, :mod:`mgdata.tasks.recovery`; off if absent).
+        appearance: per-episode appearance draws (``[appearance]``, :mod:`mgdata.sim.appearance_draw`; off
+            if absent).
     """
 
     family: str
@@ -107,6 +111,7 @@ class Recipe:
     digest: str
     ood: OodSettings | None = None
     recovery: RecoverySettings = field(default_factory=RecoverySettings)
+    appearance: AppearanceSettings = field(default_factory=AppearanceSettings)
 
 
 def recipe_path(family: str) -> Path:
@@ -176,14 +181,15 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     params = _table(raw, "params", src, required=False)
     ood = parse_ood(_table(raw, "ood", src, required=False), layout, f"{src}: [ood]")
     recovery = parse_recovery(_table(raw, "recovery", src, required=False), f"{src}: [recovery]")
+    appearance = parse_appearance(_table(raw, "appearance", src, required=False), f"{src}: [appearance]")
     top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params", "ood",
-           "recovery"}
+           "recovery", "appearance"}
     unknown = set(raw) - top
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
     return Recipe(family, skeleton, path, spec, prompt, tasks, success, layout,
-                  MappingProxyType(variation), MappingProxyType(params), digest, ood, recovery)
+                  MappingProxyType(variation), MappingProxyType(params), digest, ood, recovery, appearance)
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
