@@ -7,7 +7,7 @@
   (``mgdata.sim.rooms``), which recolour them.
 * **Objects.** Every visible geom of an object without a material of its own gets its category's finish
   (``ceramic``, ``glass``, ``metal``, ``plastic``, ``cardboard``, ``fabric``, ``food``, ``wood``): a grey
-  texture and a specular response, multiplied with the geom's own colour, so models keep their colours.
+  texture (none for the smooth ones: glass, glaze, plastic) and a specular response, multiplied with the geom's own colour, so models keep their colours.
   Translucent geoms (alpha < 1) are glass whatever their category; an unlisted category is ``plastic``.
 * **Lights.** A key light from the front left above, a weaker fill from the right, and a dim headlight, so
   that shapes read by their shading; optional shadows from the key light.
@@ -44,16 +44,18 @@ VISUAL_GROUP = 2
 
 FINISHES: dict[str, tuple[str | None, float, float]] = {
     # finish: (texture kind or None, specular, shininess)
-    "ceramic": ("ceramic", 0.45, 0.7),
+    "ceramic": (None, 0.45, 0.7),
     "glass": (None, 0.8, 0.9),
     "metal": ("metal", 0.7, 0.6),
-    "plastic": ("plastic", 0.3, 0.4),
+    "plastic": (None, 0.3, 0.4),
     "cardboard": ("cardboard", 0.05, 0.1),
     "fabric": ("fabric", 0.02, 0.05),
     "food": ("food", 0.15, 0.3),
     "wood": ("wood", 0.12, 0.25),
 }
-"""Each finish: its grey texture kind (None: untextured), MuJoCo specular and shininess (0…1)."""
+"""Each finish: its grey texture kind (None: untextured), MuJoCo specular and shininess (0…1). Glaze and
+plastic are smooth: a mesh without texture coordinates gets MuJoCo's projected ones, which smear a faint
+speckle into streaks across a plate, so those finishes are sheen only."""
 
 
 @dataclass(frozen=True)
