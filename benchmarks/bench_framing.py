@@ -7,8 +7,8 @@ names) and camera, at
 
 * ``share``: the fraction of the frame its visible geoms cover;
 * ``occl``: the fraction of its pixels the robot hides (its pixels with the robot drawn against without);
-* ``in view``: the corners of the bounding boxes of its colliding geoms (``geom_aabb``), and of the goal
-  sphere, project inside the image.
+* ``in view``: the corners of the bounding boxes of its colliding geoms (``geom_aabb``), and the goal
+  sphere's extremes along the world axes, project inside the image.
 
 Rules (issue 41): every key object and the goal in every third-person view at frame 0, and every key object
 ≥ 1.5 % of the frame in at least two third-person views.
@@ -112,7 +112,8 @@ def measure(framer: Framer, data: mujoco.MjData, owner: dict[int, str], keys: li
             inview = framer.inside(data, camera, framer.corners(data, colliding))
             out[(key, camera)] = (visible / SIZE ** 2, 1.0 - visible / alone if alone else 1.0, inview)
         if goal >= 0:
-            inview = framer.inside(data, camera, framer.corners(data, [goal]))
+            sphere = data.geom_xpos[goal] + m.geom_size[goal, 0] * np.concatenate([np.eye(3), -np.eye(3)])
+            inview = framer.inside(data, camera, sphere)  # the sphere's own extent, not its box's corners
             out[("goal", camera)] = (float((seen == goal).mean()), 0.0, inview)
     return out
 
