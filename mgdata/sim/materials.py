@@ -7,7 +7,8 @@
   (``mgdata.sim.rooms``), which recolour them.
 * **Objects.** Every visible geom of an object without a material of its own gets its category's finish
   (``ceramic``, ``glass``, ``metal``, ``plastic``, ``cardboard``, ``fabric``, ``food``, ``wood``): a grey
-  texture (none for the smooth ones: glass, glaze, plastic) and a specular response, multiplied with the geom's own colour, so models keep their colours.
+  texture (none for the smooth ones: glass, glaze, plastic) and a specular response, multiplied with the
+  geom's own colour, so models keep their colours.
   Translucent geoms (alpha < 1) are glass whatever their category; an unlisted category is ``plastic``.
 * **Lights.** A key light from the front left above, a weaker fill from the right, and a dim headlight, so
   that shapes read by their shading; optional shadows from the key light.
@@ -142,6 +143,17 @@ def _material(spec: mujoco.MjSpec, name: str, look: Look, kind: str | None, *, s
         mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
 
 
+def wall_boxes() -> dict[str, tuple[tuple[float, float], tuple[float, float]]]:
+    """Each wall's centre (x, y) and half extents (x, y) in the table plane (m, world)."""
+    (x0, x1), (y0, y1) = ROOM_X, ROOM_Y
+    return {
+        "back": ((x0, 0.0), (0.05, (y1 - y0) / 2.0)),
+        "front": ((x1, 0.0), (0.05, (y1 - y0) / 2.0)),
+        "left": ((0.5 * (x0 + x1), y1), ((x1 - x0) / 2.0, 0.05)),
+        "right": ((0.5 * (x0 + x1), y0), ((x1 - x0) / 2.0, 0.05)),
+    }
+
+
 def dress_room(spec: mujoco.MjSpec, look: Look, floor_z: float) -> None:
     """Materials for the table top (``table/top``), the floor (geom ``floor``), four plaster walls and the
     lights; call after the table and floor exist."""
@@ -158,13 +170,7 @@ def dress_room(spec: mujoco.MjSpec, look: Look, floor_z: float) -> None:
         elif geom.name == "floor":
             geom.material, geom.rgba = "floor_mat", [*look.floor, 1.0]
     h = WALL_HEIGHT / 2.0
-    (x0, x1), (y0, y1) = ROOM_X, ROOM_Y
-    walls = {
-        "back": ((x0, 0.0), (0.05, (y1 - y0) / 2.0)),
-        "front": ((x1, 0.0), (0.05, (y1 - y0) / 2.0)),
-        "left": ((0.5 * (x0 + x1), y1), ((x1 - x0) / 2.0, 0.05)),
-        "right": ((0.5 * (x0 + x1), y0), ((x1 - x0) / 2.0, 0.05)),
-    }
+    walls = wall_boxes()
     for wall, ((cx, cy), (hx, hy)) in walls.items():
         spec.worldbody.add_geom(name=f"wall_{wall}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[hx, hy, h],
                                 pos=[cx, cy, floor_z + h], material="wall_mat", rgba=[*look.walls, 1.0],

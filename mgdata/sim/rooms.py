@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import mujoco
 
 from mgdata.errors import SceneError
-from mgdata.sim.materials import ROOM_X, ROOM_Y, WALL_HEIGHT
+from mgdata.sim.materials import ROOM_X, ROOM_Y, WALL_HEIGHT, wall_boxes
 
 RGB = tuple[float, float, float]
 
@@ -328,13 +328,8 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         "leaf": (0.18, 0.45, 0.16),
     }
     body = spec.worldbody  # static geoms of the world body: no new body, so the state size is unchanged
-    (x0, x1), (y0, y1) = ROOM_X, ROOM_Y
-    walls = {
-        "back": ((x0, 0.0), (0.05, (y1 - y0) / 2.0)),
-        "front": ((x1, 0.0), (0.05, (y1 - y0) / 2.0)),
-        "left": ((0.5 * (x0 + x1), y1), ((x1 - x0) / 2.0, 0.05)),
-        "right": ((0.5 * (x0 + x1), y0), ((x1 - x0) / 2.0, 0.05)),
-    }
+    x0, y1 = ROOM_X[0], ROOM_Y[1]
+    walls = wall_boxes()
     for wall, ((cx, cy), (hx, hy)) in walls.items():
         spec.geom(f"wall_{wall}").rgba = [*style.wall, 1.0]  # the plain scene's walls (mgdata.sim.materials)
         _geom(
