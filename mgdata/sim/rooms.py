@@ -328,7 +328,7 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
         "leaf": (0.18, 0.45, 0.16),
     }
     body = spec.worldbody  # static geoms of the world body: no new body, so the state size is unchanged
-    x0, y1 = ROOM_X[0], ROOM_Y[1]
+    x0, (y0, y1) = ROOM_X[0], ROOM_Y
     walls = wall_boxes()
     for wall, ((cx, cy), (hx, hy)) in walls.items():
         spec.geom(f"wall_{wall}").rgba = [*style.wall, 1.0]  # the plain scene's walls (mgdata.sim.materials)
