@@ -46,6 +46,7 @@ from mgdata.tasks.variants import (
     mean_colour,
     target_variant,
 )
+from tests.helpers.sim_tasks import kicked_states
 
 MGDATA = [str(Path(sys.executable).parent / "mgdata")]
 NAME_FIELDS = ("names", "paths", "names_map")
@@ -75,20 +76,7 @@ def _files(root: Path) -> list[Path]:
 
 def _trajectory(task, kick: str) -> np.ndarray:  # type: ignore[no-untyped-def]
     """Full physics states over 1.2 s: the arm sweeps its joints and ``kick`` slides into its neighbours."""
-    scene = build_scene(task)
-    m, d = scene.model, scene.data
-    body = m.body(kick)
-    dof = m.jnt_dofadr[body.jntadr[0]]
-    d.qvel[dof : dof + 3] = [0.0, -0.6, 0.0]
-    arm = np.flatnonzero(m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT)[:7]
-    start = d.ctrl[arm].copy()
-    states = []
-    for step in range(600):
-        d.ctrl[arm] = start + 0.3 * np.sin(step * 0.01 + np.arange(7))
-        mujoco.mj_step(m, d)
-        if step % 25 == 0:
-            states.append(scene.snapshot())
-    return np.array(states)
+    return kicked_states(build_scene(task), kick, (0.0, -0.6, 0.0))
 
 
 @pytest.fixture(scope="module")

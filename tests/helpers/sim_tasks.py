@@ -94,3 +94,24 @@ def ik(q0: np.ndarray, pos: tuple[float, float, float], rot: np.ndarray) -> np.n
             break
     assert np.linalg.norm(task.compute_error(cfg)[:3]) < 1e-3, "IK did not converge"
     return cfg.q[:7].copy()
+
+
+def kicked_states(scene, kick: str, velocity: tuple[float, float, float],  # type: ignore[no-untyped-def]
+                  every: int = 25) -> np.ndarray:
+    """Full physics states (every ``every``-th of 600 steps, 1.2 s) of ``scene`` from its current state: the
+    arm sweeps its joints while the free body ``kick`` is sent off at ``velocity`` (m/s) into its
+    neighbours."""
+    import mujoco
+
+    m, d = scene.model, scene.data
+    dof = m.jnt_dofadr[m.body(kick).jntadr[0]]
+    d.qvel[dof: dof + 3] = velocity
+    arm = np.flatnonzero(m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT)[:7]
+    start = d.ctrl[arm].copy()
+    states = []
+    for step in range(600):
+        d.ctrl[arm] = start + 0.3 * np.sin(step * 0.01 + np.arange(7))
+        mujoco.mj_step(m, d)
+        if step % every == 0:
+            states.append(scene.snapshot())
+    return np.array(states)

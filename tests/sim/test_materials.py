@@ -19,7 +19,7 @@ from mgdata.sim.renderer import CameraRig
 from mgdata.sim.scene import Scene, build_scene
 from mgdata.sim.taskspec import ObjectPlacement
 from mgdata.sim.textures import KINDS, texture
-from tests.helpers.sim_tasks import jar_task
+from tests.helpers.sim_tasks import jar_task, kicked_states
 
 PHYSICS_FIELDS = ("body_mass", "body_inertia", "body_pos", "body_quat", "geom_size", "geom_pos", "geom_quat",
                   "geom_friction", "geom_contype", "geom_conaffinity", "geom_solref", "geom_solimp",
@@ -42,18 +42,7 @@ def _plain_look_scene() -> Scene:
 def _trajectory(scene: Scene) -> np.ndarray:
     """States of 1.2 s in which the arm sweeps and the carton is kicked into the jar (contacts)."""
     scene.reset()
-    m, d = scene.model, scene.data
-    dof = m.jnt_dofadr[m.body("box").jntadr[0]]
-    d.qvel[dof: dof + 3] = [0.2, 0.6, 0.0]
-    arm = robot.arm_actuator_ids(m)[:7]
-    start = d.ctrl[arm].copy()
-    out = []
-    for step in range(600):
-        d.ctrl[arm] = start + 0.3 * np.sin(step * 0.01 + np.arange(7))
-        mujoco.mj_step(m, d)
-        if step % 20 == 0:
-            out.append(scene.snapshot())
-    return np.array(out)
+    return kicked_states(scene, "box", (0.2, 0.6, 0.0), every=20)
 
 
 def test_the_look_changes_no_physics_field_and_no_state() -> None:
