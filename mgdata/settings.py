@@ -63,7 +63,7 @@ def settings_from_dict(cls: type[T], raw: Mapping[str, Any], source: str) -> T:
         for key, value in table.items():
             if key not in types:
                 raise RecipeError(f"{source}: unknown key [{name}] {key}; expected one of {sorted(types)}")
-            values[key] = _coerce(value, types[key], f"{source}: [{name}] {key}")
+            values[key] = coerce_value(value, types[key], f"{source}: [{name}] {key}")
         kwargs[name] = _construct(table_cls, values, source)
     return _construct(cls, kwargs, source)
 
@@ -75,7 +75,9 @@ def _construct(cls: Any, values: dict[str, Any], source: str) -> Any:
         raise RecipeError(f"{source}: {err}") from None
 
 
-def _coerce(value: Any, type_name: str, where: str) -> Any:
+def coerce_value(value: Any, type_name: str, where: str) -> Any:
+    """``value`` (parsed TOML) as a field annotated ``type_name``; a mismatch is a RecipeError at
+    ``where``."""
     if type_name in VECTOR_TYPES:
         n = VECTOR_TYPES[type_name]
         if not (isinstance(value, list) and len(value) == n

@@ -62,7 +62,9 @@ def task_from_meta(meta: dict[str, Any], recipe: Recipe, where: str) -> TaskSpec
             robot_base=tuple(meta["robot_base"]), robot_base_yaw=float(meta["robot_base_yaw"]),
             image_size=int(meta["image_size"]), seed=int(meta["seed"]), params=recipe.params,
             draw=int(meta["draw"]), gate=MappingProxyType(dict(meta["gate"].get("facts", {}))),
-            tint=MappingProxyType({k: tuple(v) for k, v in meta["tint"].items()}), room=meta["room"])
+            tint=MappingProxyType({k: tuple(v) for k, v in meta["tint"].items()}), room=meta["room"],
+            cameras=MappingProxyType({k: tuple(v) if isinstance(v, list) else v
+                                      for k, v in meta.get("camera_framing", {}).items()}))
     except (KeyError, TypeError, ValueError) as err:
         raise DatasetError(f"{where}: not a scenario.json this version reads ({err!r})") from None
 

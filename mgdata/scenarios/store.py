@@ -98,6 +98,7 @@ def build_scenario(recipe: Recipe, task_id: int, condition: str, out: Path) -> d
         "articulation": dict(task.articulation),
         "tint": {k: list(v) for k, v in task.tint.items()},
         "room": task.room,
+        "camera_framing": {k: list(v) if isinstance(v, tuple) else v for k, v in task.cameras.items()},
         "robot_base": list(task.robot_base),
         "robot_base_yaw": task.robot_base_yaw,
         "cameras": _cameras(scene, recipe.tasks.cameras),

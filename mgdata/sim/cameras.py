@@ -14,17 +14,26 @@ looks at the workspace point ``base + 0.45·fwd + 0.22·z``. The shipped placeme
   the objects like any other link, and the eye sits on its front face: the eye is never inside geometry,
   and never below the table top.
 
-The camera names are a contract (observations list them); only their placement is tunable.
+The camera names are a contract (observations list them); only their placement is tunable. A family
+recipe may reframe its four third-person views with its own ``[cameras]`` table (:data:`FAMILY_KEYS`:
+``fovy``, ``look_at`` and the four eyes, over ``sim.toml``'s), so each family's work fills its frames; the
+wrist camera is the robot's and stays. ``benchmarks/bench_framing.py --fit`` derives such a table from the
+family's layouts.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from mgdata.errors import RecipeError
+from mgdata.settings import coerce_value
 
 THIRD_PERSON: tuple[str, ...] = ("front", "left", "right", "shoulder")
 WRIST = "wrist"
@@ -34,6 +43,8 @@ CAMERA_NAMES: tuple[str, ...] = (*THIRD_PERSON, WRIST)
 """All cameras, in the order observations list them."""
 
 Vec3 = tuple[float, float, float]
+FAMILY_KEYS: tuple[str, ...] = ("fovy", "look_at", *THIRD_PERSON)
+"""The keys a family recipe's ``[cameras]`` table may set: how its third-person views are framed."""
 
 
 @dataclass(frozen=True)
@@ -89,6 +100,27 @@ class CameraLayout:
         return getattr(self, name)
 
 
+def parse_family_cameras(table: Mapping[str, Any], base: CameraLayout, where: str) -> Mapping[str, Any]:
+    """A family recipe's ``[cameras]`` table, checked (keys from :data:`FAMILY_KEYS`, types, and the layout
+    it makes over ``base``): the overrides, read-only, as :func:`with_overrides` takes them."""
+    unknown = sorted(set(table) - set(FAMILY_KEYS))
+    if unknown:
+        raise RecipeError(f"{where} unknown key(s) {unknown}; a family may set {list(FAMILY_KEYS)} (the "
+                          "wrist camera and the image size are not a family's: recipes/sim.toml, [tasks])")
+    types = {f.name: str(f.type) for f in dataclasses.fields(CameraLayout)}
+    values = {k: coerce_value(v, types[k], f"{where} {k}") for k, v in table.items()}
+    try:
+        with_overrides(base, values)
+    except RecipeError as err:
+        raise RecipeError(f"{where} {str(err).removeprefix('[cameras] ')}") from None
+    return MappingProxyType(values)
+
+
+def with_overrides(layout: CameraLayout, overrides: Mapping[str, Any]) -> CameraLayout:
+    """``layout`` with a family's ``[cameras]`` overrides (:func:`parse_family_cameras`) applied."""
+    return dataclasses.replace(layout, **overrides) if overrides else layout
+
+
 def look_at_quat(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
     """Quaternion (w, x, y, z) of a camera at ``eye`` looking at ``target`` (camera −Z forward, +Y up)."""
     fwd = np.asarray(target, dtype=np.float64) - np.asarray(eye, dtype=np.float64)
@@ -108,19 +140,33 @@ def base_frame(base: tuple[float, float, float], yaw: float) -> tuple[np.ndarray
     return np.asarray(base, dtype=np.float64), np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def camera_poses(base: tuple[float, float, float], yaw: float,
+                 layout: CameraLayout) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:
+    """Each camera's (position, quaternion w-x-y-z, fovy): the third-person ones in the world frame of a robot
+    base at ``base`` turned by ``yaw``, ``wrist`` in the hand frame. :func:`add_cameras` places them; a
+    benchmark can apply another layout to a compiled model's ``cam_pos``/``cam_quat``/``cam_fovy``."""
+    pos, rot = base_frame(base, yaw)
+    target = pos + rot @ np.array(layout.look_at)
+    poses = {}
+    for name in THIRD_PERSON:
+        eye = pos + rot @ np.array(layout.eye(name))
+        poses[name] = (eye, look_at_quat(eye, target, np.array([0.0, 0.0, 1.0])), layout.fovy)
+    quat = look_at_quat(np.array(layout.wrist_eye), np.array(layout.wrist_target), np.array([1.0, 0.0, 0.0]))
+    poses[WRIST] = (np.array(layout.wrist_eye, dtype=np.float64), quat, layout.wrist_fovy)
+    return poses
+
+
 def add_cameras(spec: mujoco.MjSpec, base: tuple[float, float, float], yaw: float, hand_body: str,
                 layout: CameraLayout) -> None:
     """Add the five cameras to ``spec`` (third-person ones in the world; ``wrist`` and its colliding body
     geom on ``hand_body``)."""
-    pos, rot = base_frame(base, yaw)
-    target = pos + rot @ np.array(layout.look_at)
+    poses = camera_poses(base, yaw, layout)
     for name in THIRD_PERSON:
-        eye = pos + rot @ np.array(layout.eye(name))
-        quat = look_at_quat(eye, target, np.array([0.0, 0.0, 1.0]))
-        spec.worldbody.add_camera(name=name, pos=eye.tolist(), quat=quat.tolist(), fovy=layout.fovy)
-    quat = look_at_quat(np.array(layout.wrist_eye), np.array(layout.wrist_target), np.array([1.0, 0.0, 0.0]))
+        eye, quat, fovy = poses[name]
+        spec.worldbody.add_camera(name=name, pos=eye.tolist(), quat=quat.tolist(), fovy=fovy)
+    eye, quat, fovy = poses[WRIST]
     hand = spec.body(hand_body)
-    hand.add_camera(name=WRIST, pos=list(layout.wrist_eye), quat=quat.tolist(), fovy=layout.wrist_fovy)
+    hand.add_camera(name=WRIST, pos=eye.tolist(), quat=quat.tolist(), fovy=fovy)
     centre = np.array(layout.wrist_eye) - np.array([0.0, 0.0, layout.wrist_body[2]])
     hand.add_geom(name=WRIST_BODY_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(layout.wrist_body),
                   pos=centre.tolist(), rgba=[0.16, 0.16, 0.18, 1.0], group=2, mass=0.0)

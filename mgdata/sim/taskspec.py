@@ -63,6 +63,8 @@ class TaskSpec:
         gate: facts the initial-state gate established (e.g. ``grasps``: the reachable grasp ids).
         tint: instance name -> RGB tint (0…1) recolouring it (the target OOD variant; material only).
         room: the room style the table stands in (``mgdata.sim.rooms``; ``""``: plain surroundings).
+        cameras: the family's third-person framing over ``recipes/sim.toml`` ``[cameras]`` (the recipe's
+            ``[cameras]`` table, :func:`mgdata.sim.cameras.parse_family_cameras`; empty: sim.toml's).
     """
 
     family: str
@@ -82,6 +84,7 @@ class TaskSpec:
     gate: Mapping[str, Any] = field(default_factory=_frozen)
     tint: Mapping[str, tuple[float, float, float]] = field(default_factory=_frozen)
     room: str = ""
+    cameras: Mapping[str, Any] = field(default_factory=_frozen)
 
     def object(self, name: str) -> ObjectPlacement:
         for obj in self.objects:

@@ -23,7 +23,7 @@ from mgdata.errors import SceneError
 from mgdata.sim import robot
 from mgdata.sim.appearance import apply_tint
 from mgdata.sim.assets import ObjectModel, get_model
-from mgdata.sim.cameras import add_cameras
+from mgdata.sim.cameras import add_cameras, with_overrides
 from mgdata.sim.materials import Look, dress_objects, dress_room
 from mgdata.sim.particles import add_particles, particle_models
 from mgdata.sim.rooms import add_room
@@ -145,5 +145,6 @@ def assemble_spec(task: TaskSpec, sim: SimConfig) -> tuple[mujoco.MjSpec, dict[s
     if task.room:  # the environment OOD variant: visual only
         add_room(spec, task.room, FLOOR_Z)
     _add_goal(spec, task)
-    add_cameras(spec, task.robot_base, task.robot_base_yaw, robot.HAND_BODY, sim.cameras)
+    add_cameras(spec, task.robot_base, task.robot_base_yaw, robot.HAND_BODY,
+                with_overrides(sim.cameras, task.cameras))
     return spec, models

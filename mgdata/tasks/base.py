@@ -53,4 +53,5 @@ def draw_task(recipe: Recipe, task_id: int, draw: int = 0) -> TaskSpec:
         image_size=recipe.tasks.image_size,
         seed=int(rng.integers(0, 2**31 - 1)),
         params=recipe.params,
+        cameras=recipe.cameras,
     )

@@ -19,6 +19,7 @@ Top-level keys and tables::
     [params]      skeleton tunables (copied into every TaskSpec.params)
     [ood]         how the OOD variants are built (mgdata.tasks.ood; optional, docs/scenarios.md)
     [recovery]    perturbed execution with corrective labels (mgdata.tasks.recovery; optional, off)
+    [cameras]     the family's third-person framing over recipes/sim.toml's (mgdata.sim.cameras; optional)
     [appearance]  per-episode appearance draws for the cameras (mgdata.sim.appearance_draw; optional, off)
 
 ``[params]`` and ``[variation]`` hold exactly the keys the family's skeleton declares it reads
@@ -47,6 +48,8 @@ from typing import Any
 from mgdata.errors import RecipeError, UnknownFamilyError
 from mgdata.paths import recipe_dirs, recipes_dir
 from mgdata.sim.appearance_draw import AppearanceSettings, parse_appearance
+from mgdata.sim.cameras import parse_family_cameras
+from mgdata.sim.config import load_sim_config
 from mgdata.spec import Proposition, SafetySpec, load_spec, proposition_from_mapping
 from mgdata.tasks.layout_rules import Layout, parse_layout
 from mgdata.tasks.ood import OodSettings, parse_ood
@@ -96,6 +99,8 @@ class Recipe:
         recovery: perturbed execution (``[recovery]``, :mod:`mgdata.tasks.recovery`; off if absent).
         appearance: per-episode appearance draws (``[appearance]``, :mod:`mgdata.sim.appearance_draw`; off
             if absent).
+        cameras: the family's third-person framing (``[cameras]``: ``fovy``, ``look_at``, the four eyes)
+            over ``recipes/sim.toml``'s, copied into every TaskSpec (empty if absent).
     """
 
     family: str
@@ -112,6 +117,7 @@ class Recipe:
     ood: OodSettings | None = None
     recovery: RecoverySettings = field(default_factory=RecoverySettings)
     appearance: AppearanceSettings = field(default_factory=AppearanceSettings)
+    cameras: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
 
 def recipe_path(family: str) -> Path:
@@ -182,14 +188,17 @@ def load_recipe(family_or_path: str | Path) -> Recipe:
     ood = parse_ood(_table(raw, "ood", src, required=False), layout, f"{src}: [ood]")
     recovery = parse_recovery(_table(raw, "recovery", src, required=False), f"{src}: [recovery]")
     appearance = parse_appearance(_table(raw, "appearance", src, required=False), f"{src}: [appearance]")
+    cameras = parse_family_cameras(_table(raw, "cameras", src, required=False), load_sim_config().cameras,
+                                   f"{src}: [cameras]")
     top = {"family", "skeleton", "spec", "prompt", "tasks", "success", "layout", "variation", "params", "ood",
-           "recovery", "appearance"}
+           "recovery", "appearance", "cameras"}
     unknown = set(raw) - top
     if unknown:
         raise RecipeError(f"{src}: unknown top-level key(s) {sorted(unknown)}")
     digest = hashlib.sha256(path.read_bytes() + b"\0" + spec_path.read_bytes()).hexdigest()[:16]
     return Recipe(family, skeleton, path, spec, prompt, tasks, success, layout,
-                  MappingProxyType(variation), MappingProxyType(params), digest, ood, recovery, appearance)
+                  MappingProxyType(variation), MappingProxyType(params), digest, ood, recovery, appearance,
+                  cameras)
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
