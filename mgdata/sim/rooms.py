@@ -1,8 +1,8 @@
 """Procedural rooms around the tabletop: the environment axis of the OOD variants (docs/scenarios.md).
 
 A room is built only from MuJoCo primitives and builtin textures (no downloaded assets): it recolours the
-floor, the sky and the plain scene's walls (``mgdata.sim.materials``) and adds skirting, windows, furniture
-and a light around the table. Everything it adds is
+floor, the sky, the table top and the plain scene's walls (``mgdata.sim.materials``) and adds skirting,
+windows, furniture and a light around the table. Everything it adds is
 visual only (``contype = conaffinity = 0``, no mass, no joints, static in the world body), so the robot, the
 table and the objects move exactly as without it (``tests/test_scenarios.py`` checks the trajectory bit for
 bit). The floor plane keeps its geometry and friction; only its texture changes.
@@ -33,8 +33,9 @@ ROOM_GROUP = 2
 class RoomStyle:
     """One room: colours (RGB 0…1) of its floor checker, walls, sky gradient, windows, furniture and light.
 
-    ``floor_builtin`` is MuJoCo's builtin texture (``checker`` or ``gradient``; ``flat`` = ``floor_a`` only),
-    ``floor_repeat`` how often it tiles over the 8 m floor. ``furniture`` names the pieces
+    ``table`` tints the table top's wood texture (a room brings its own table finish: a framed view is mostly
+    table). ``floor_builtin`` is MuJoCo's builtin texture (``checker`` or ``gradient``; ``flat`` =
+    ``floor_a`` only), ``floor_repeat`` how often it tiles over the 8 m floor. ``furniture`` names the pieces
     (:data:`FURNITURE`) placed along the walls.
     """
 
@@ -51,6 +52,7 @@ class RoomStyle:
     furniture: tuple[str, ...]
     accent: RGB
     light: RGB
+    table: RGB
 
 
 ROOM_STYLES: tuple[RoomStyle, ...] = (
@@ -68,6 +70,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("desk", "shelf", "cabinet", "plant"),
         (0.20, 0.30, 0.55),
         (0.95, 0.95, 1.00),
+        table=(0.58, 0.6, 0.62),
     ),
     RoomStyle(
         "kitchen",
@@ -83,6 +86,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("counter", "fridge", "shelf", "stool"),
         (0.75, 0.20, 0.15),
         (1.00, 0.95, 0.85),
+        table=(0.92, 0.91, 0.88),
     ),
     RoomStyle(
         "living_room",
@@ -98,6 +102,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("sofa", "plant", "lamp", "shelf"),
         (0.30, 0.45, 0.30),
         (1.00, 0.88, 0.70),
+        table=(0.36, 0.22, 0.14),
     ),
     RoomStyle(
         "classroom",
@@ -113,6 +118,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("board", "desk", "desk", "shelf"),
         (0.15, 0.30, 0.20),
         (1.00, 1.00, 0.95),
+        table=(0.8, 0.7, 0.52),
     ),
     RoomStyle(
         "workshop",
@@ -128,6 +134,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("workbench", "cabinet", "barrel", "shelf"),
         (0.85, 0.45, 0.10),
         (0.90, 0.92, 1.00),
+        table=(0.45, 0.52, 0.42),
     ),
     RoomStyle(
         "laboratory",
@@ -143,6 +150,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("counter", "cabinet", "fridge", "stool"),
         (0.10, 0.60, 0.70),
         (0.92, 0.97, 1.00),
+        table=(0.18, 0.19, 0.21),
     ),
     RoomStyle(
         "bedroom",
@@ -158,6 +166,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("bed", "lamp", "cabinet", "plant"),
         (0.60, 0.30, 0.50),
         (0.85, 0.80, 1.00),
+        table=(0.94, 0.92, 0.88),
     ),
     RoomStyle(
         "warehouse",
@@ -173,6 +182,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("crates", "shelf", "barrel", "crates"),
         (0.60, 0.45, 0.25),
         (1.00, 0.97, 0.90),
+        table=(0.78, 0.64, 0.42),
     ),
     RoomStyle(
         "studio",
@@ -188,6 +198,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("lamp", "sofa", "plant", "board"),
         (0.90, 0.75, 0.20),
         (0.95, 0.90, 1.00),
+        table=(0.12, 0.12, 0.13),
     ),
     RoomStyle(
         "garden_room",
@@ -203,6 +214,7 @@ ROOM_STYLES: tuple[RoomStyle, ...] = (
         ("plant", "plant", "bench", "plant"),
         (0.85, 0.55, 0.20),
         (1.00, 1.00, 0.90),
+        table=(0.5, 0.32, 0.18),
     ),
 )
 """The room styles, in a fixed order (the environment builder picks one per task)."""
@@ -310,6 +322,7 @@ def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
     ``wall_*`` geoms of ``mgdata.sim.materials``) into room ``name``: floor, sky and walls recoloured,
     windows, skirting, furniture along the walls and a tinted light; all visual only."""
     style = room_style(name)
+    spec.geom("table/top").rgba = [*style.table, 1.0]
     spec.add_texture(name="room_floor", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=_BUILTINS[style.floor_builtin],
                      rgb1=list(style.floor_a), rgb2=list(style.floor_b), width=256, height=256)

@@ -117,8 +117,9 @@ def test_the_room_is_visual_only_and_changes_most_of_the_view(clutter) -> None: 
     is_room = np.array([mb.geom(g).name.startswith("room/") for g in range(mb.ngeom)])
     extra, kept = np.flatnonzero(is_room), np.flatnonzero(~is_room)  # kept: the base scene's geoms, in order
     assert len(kept) == ma.ngeom and len(extra) > 15
-    plain = np.array([not ma.geom(g).name.startswith("wall_") and ma.geom(g).name != "floor"
-                      for g in range(ma.ngeom)])  # the plain scene's walls and floor take the room's colours
+    recoloured = ("floor", "table/top")  # with the plain scene's walls: they take the room's colours
+    plain = np.array([not ma.geom(g).name.startswith("wall_") and ma.geom(g).name not in recoloured
+                      for g in range(ma.ngeom)])
     for f in (
         "type",
         "size",
@@ -175,11 +176,12 @@ def test_the_room_leaves_every_physics_field_of_robot_table_objects_and_cameras_
     assert len(kept) == ma.ngeom and is_room.sum() > 15 and mb.nlight > ma.nlight
     grown = {k for k in fa if fa[k].shape != fb[k].shape}
     assert grown and all(k.startswith(("geom_", "light_", "tex_")) for k in grown), grown
-    recoloured = [ma.geom(g).name.startswith("wall_") or ma.geom(g).name == "floor" for g in range(ma.ngeom)]
+    recoloured = [ma.geom(g).name.startswith("wall_") or ma.geom(g).name in ("floor", "table/top")
+                  for g in range(ma.ngeom)]
     for k in sorted(k for k in grown if not k.startswith("tex_")):  # tex_: the room's floor texture is added
         rows = kept if k.startswith("geom_") else np.arange(ma.nlight)
         a, b = fa[k], fb[k][rows]
-        if k == "geom_rgba":  # the walls and the floor take the room's colours, nothing else does
+        if k == "geom_rgba":  # walls, floor, table top take the room's colours; nothing else
             assert np.array_equal(a[~np.array(recoloured)], b[~np.array(recoloured)]), k
         else:
             assert np.array_equal(a, b, equal_nan=True), k
