@@ -31,7 +31,7 @@ import argparse
 import numpy as np
 from bench_framing import corners, instance_geoms, key_objects, sphere_points
 
-from mgdata.sim.cameras import THIRD_PERSON, CameraLayout
+from mgdata.sim.cameras import THIRD_PERSON, CameraLayout, base_frame
 from mgdata.sim.config import load_sim_config
 from mgdata.sim.materials import ROOM_X, ROOM_Y
 from mgdata.sim.scene import build_scene
@@ -65,9 +65,8 @@ def frame_points(family: str, tasks: int, draws: int) -> np.ndarray:
             if "goal" in geoms:
                 g = geoms["goal"][0]
                 world.append(sphere_points(data.geom_xpos[g], float(model.geom_size[g, 0])))
-            c, s = np.cos(task.robot_base_yaw), np.sin(task.robot_base_yaw)
-            rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-            pts.append((np.concatenate(world) - np.asarray(task.robot_base)) @ rot)
+            pos, rot = base_frame(task.robot_base, task.robot_base_yaw)
+            pts.append((np.concatenate(world) - pos) @ rot)
     return np.concatenate(pts)
 
 
@@ -95,7 +94,7 @@ def tight_distance(target: np.ndarray, ray: np.ndarray, pts: np.ndarray, fovy: f
     return hi
 
 
-def min_distance(target: np.ndarray, ray: np.ndarray, reach: float, lod: float) -> tuple[float, float]:
+def allowed_distances(target: np.ndarray, ray: np.ndarray, reach: float, lod: float) -> tuple[float, float]:
     """(nearest, farthest) distances along ``ray`` that keep the eye out of the arm's reach, past the far
     level of detail and inside the walls."""
     shoulder = np.array([0.0, 0.0, SHOULDER_HEIGHT])
@@ -122,7 +121,7 @@ def place(target: np.ndarray, azimuth: float, elevations: np.ndarray, pts: np.nd
     best = (float("inf"), ray(azimuth, float(elevations[0])), 0.0)
     for elevation in elevations:
         r = ray(azimuth, float(elevation))
-        near, far = min_distance(target, r, reach, lod)
+        near, far = allowed_distances(target, r, reach, lod)
         tight = tight_distance(target, r, pts, fovy, margin)
         d = max(tight, near)
         if d <= far and d < best[0]:

@@ -17,8 +17,8 @@ looks at the workspace point ``base + 0.45·fwd + 0.22·z``. The shipped placeme
 The camera names are a contract (observations list them); only their placement is tunable. A family
 recipe may reframe its four third-person views with its own ``[cameras]`` table (:data:`FAMILY_KEYS`:
 ``fovy``, ``look_at`` and the four eyes, over ``sim.toml``'s), so each family's work fills its frames; the
-wrist camera is the robot's and stays. ``benchmarks/bench_framing.py --fit`` derives such a table from the
-family's layouts.
+wrist camera is the robot's and stays. ``benchmarks/fit_framing.py`` derives such a table from the family's
+layouts, and ``benchmarks/bench_framing.py`` measures it.
 """
 
 from __future__ import annotations

@@ -319,8 +319,8 @@ def room_style(name: str) -> RoomStyle:
 
 def add_room(spec: mujoco.MjSpec, name: str, floor_z: float) -> None:
     """Turn ``spec``'s plain surroundings (the ``floor_mat`` material, the ``sky`` texture and the
-    ``wall_*`` geoms of ``mgdata.sim.materials``) into room ``name``: floor, sky and walls recoloured,
-    windows, skirting, furniture along the walls and a tinted light; all visual only."""
+    ``wall_*`` geoms of ``mgdata.sim.materials``) into room ``name``: floor, sky, walls and table top
+    recoloured, windows, skirting, furniture along the walls and a tinted light; all visual only."""
     style = room_style(name)
     spec.geom("table/top").rgba = [*style.table, 1.0]
     spec.add_texture(name="room_floor", type=mujoco.mjtTexture.mjTEXTURE_2D,
