@@ -15,7 +15,8 @@ The paper's "four-phase articulated sequence (relocate → open → place → cl
 4. **Close.** Grasp the handle again, push the drawer shut (``close_overshoot`` past closed), release, back
    off and hold still: the gate needs the target inside the closed drawer, at rest.
 
-Numbers come from ``recipes/cabinet.toml``.
+Phases (restarts, :mod:`mgdata.skeleton.phase`): ``open`` (1-2) and ``place``, done once ``target_inside``
+holds, and ``close``, done once ``drawer_closed`` holds. Numbers come from ``recipes/cabinet.toml``.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from mgdata.skeleton.articulation import Drawer, HandleDrive
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.opening import into_opening
+from mgdata.skeleton.phase import Phase
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.poses import backed_off, raised
 from mgdata.skeleton.reach import arm_path, reaches_grasp
@@ -90,12 +92,12 @@ class CabinetSkeleton(FamilySkeleton):
     target = PickAndCarry(TARGET, grasp_filter=("top_down",))
     """Only grasps from above: the hand stays over the drawer's rim (a side grasp's would hit its walls)."""
 
-    # -- segments: relocate -> open -> place -> close ----------------------------------------------------
-    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
-        segs: list[s.MotionSegment] = []
-        for role in self.in_the_way(ctx):
-            segs += RELOCATE[role].segments(ctx)
-        return [*segs, *self._open(ctx), *self._place(ctx), *self._close(ctx)]
+    # -- phases: (relocate ->) open -> place -> close ----------------------------------------------------
+    def phases(self, ctx: Context) -> Sequence[Phase]:
+        relocate = [seg for role in self.in_the_way(ctx) for seg in RELOCATE[role].segments(ctx)]
+        return [Phase("open", (*relocate, *self._open(ctx)), done="target_inside"),
+                Phase("place", tuple(self._place(ctx)), done="target_inside"),
+                Phase("close", tuple(self._close(ctx)), done="drawer_closed")]
 
     def _open(self, ctx: Context) -> list[s.MotionSegment]:
         ctx.memo["handle"] = choose_grasp(ctx, CABINET, "handle_grasps", lambda: self.handle_grasps(ctx),

@@ -32,6 +32,9 @@ one, docs/families.md) with a food item (``food``) inside:
    Hold while the food falls and settles (the gate: food inside the tray, tray clean, upright and not
    moved, at rest).
 
+Phases (a restart from a mid-task state, :mod:`mgdata.skeleton.phase`): ``wipe`` (steps 1-3, done once
+``dest_clean`` holds) and ``pour`` (steps 4-5).
+
 The order "clean before pour" is a safety constraint of the spec (``!food_in_dest W dest_clean``), so
 pouring onto a dusty tray is a violation at the step the food lands, not only a failed goal.
 """
@@ -51,6 +54,7 @@ from mgdata.sim.robot import FINGER_DEPTH, FINGER_HALF_WIDTH, FINGERTIP_REACH, G
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
+from mgdata.skeleton.phase import Phase
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.pick_place import PickPlace
 from mgdata.skeleton.poses import UP, backed_off, raised
@@ -168,10 +172,11 @@ class DustySkeleton(FamilySkeleton):
     wipe = Wipe("sponge", tray="dest", patch="dust")
     pour = Pour("source", food="food", dest="dest")
 
-    # -- segments: pick the sponge -> wipe -> put it back -> grasp the source -> pour ---------------------
-    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
-        return [*self._pick_sponge(ctx), *self.wipe.segments(ctx), *self._put_sponge_back(ctx),
-                *self.carrier.pick_segments(ctx), *self.pour.segments(ctx)]
+    # -- phases: wipe (pick the sponge, wipe, put it back) -> pour (grasp the source, pour) ---------------
+    def phases(self, ctx: Context) -> Sequence[Phase]:
+        wipe = (*self._pick_sponge(ctx), *self.wipe.segments(ctx), *self._put_sponge_back(ctx))
+        return [Phase("wipe", wipe, done="dest_clean"),
+                Phase("pour", (*self.carrier.pick_segments(ctx), *self.pour.segments(ctx)))]
 
     @staticmethod
     def _pick_sponge(ctx: Context) -> list[s.MotionSegment]:

@@ -2,18 +2,19 @@
 
 The motion, as the paper describes it:
 
-1. **Cap the container.** Grasp the lid top-down by its knob (the cap: by its body), round-robin over its
-   reachable valid grasps, aimed where the arm comes to rest at the grasp (:mod:`mgdata.grasps.rest`: it
-   sags 5-13 mm below a plain command, and a far cap was gripped by its plug, a fingertip then stopping the
-   seat on the rim 6 mm too high); lift it until its plug clears the rim by the draw's ``lid_hover``; carry
-   it (free) to where the arm rests with its axis on the container's and level; let the arm settle; then
-   lower it with a guarded segment aimed ``seat_overshoot`` below the seat (its rest commands cancel the
-   servos' sag, so the lid arrives on the axis) that stops once the container pushes back on the held lid
-   with ``seat_force`` newtons (never more than ``seat_max_force``); release, back off straight up and
-   return to the start pose (the container's grasp is then planned from where the gate checked it).
-   The lid's tapered plug guides it into the mouth; nothing attaches it: it stays by its own weight.
-2. **Carry the container** (Layer 2's pick-and-carry, the food and the lid riding on it): side-grasp it, lift
-   it, carry it over the goal, lower it into the goal sphere and hold it there.
+1. **Cap the container** (phase ``cap``, done once ``lid_seated`` holds). Grasp the lid top-down by its knob
+   (the cap: by its body), round-robin over its reachable valid grasps, aimed where the arm comes to rest at
+   the grasp (:mod:`mgdata.grasps.rest`: it sags 5-13 mm below a plain command, and a far cap was gripped by
+   its plug, a fingertip then stopping the seat on the rim 6 mm too high); lift it until its plug clears the
+   rim by the draw's ``lid_hover``; carry it (free) to where the arm rests with its axis on the container's
+   and level; let the arm settle; then lower it with a guarded segment aimed ``seat_overshoot`` below the
+   seat (its rest commands cancel the servos' sag, so the lid arrives on the axis) that stops once the
+   container pushes back on the held lid with ``seat_force`` newtons (never more than ``seat_max_force``);
+   release, back off straight up and return to the start pose (the container's grasp is then planned from
+   where the gate checked it). The lid's tapered plug guides it into the mouth; nothing attaches it: it
+   stays by its own weight.
+2. **Carry the container** (phase ``carry``; Layer 2's pick-and-carry, the food and the lid riding on it):
+   side-grasp it, lift it, carry it over the goal, lower it into the goal sphere and hold it there.
 
 Targets for the lid are computed from the live state when each segment starts: the held lid's pose relative
 to the measured TCP times the pose the lid should take over the container (``seat_height`` of the container
@@ -35,6 +36,7 @@ from mgdata.skeleton import segment as s
 from mgdata.skeleton.candidates import first_reachable
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
+from mgdata.skeleton.phase import Phase
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.pick_place import PickPlace
 from mgdata.skeleton.poses import about_z, backed_off, held_object, raised, yaw_of
@@ -69,8 +71,9 @@ class LidSkeleton(FamilySkeleton):
     carry = PickAndCarry(CONTAINER, riders=("food", LID))
     lid = PickAndCarry(LID)
 
-    def segments(self, ctx: Context) -> Sequence[s.MotionSegment]:
-        return [*self._cap(ctx), *self.carry.segments(ctx)]
+    def phases(self, ctx: Context) -> Sequence[Phase]:
+        return [Phase("cap", tuple(self._cap(ctx)), done="lid_seated"),
+                Phase("carry", tuple(self.carry.segments(ctx)))]
 
     def _cap(self, ctx: Context) -> list[s.MotionSegment]:
         """Pick the lid, carry it over the container, seat it with a guarded move, let go, go home."""
