@@ -193,7 +193,7 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
            f"--policy.optimizer_lr={args.lr}", f"--batch_size={args.batch}", f"--steps={args.steps}",
            f"--save_freq={max(1, min(args.steps // 4, 500))}", f"--log_freq={log_freq}",
            f"--num_workers={args.loader_workers}",
-           f"--seed={args.seed}", f"--output_dir={out}"]
+           f"--seed={args.seed}", f"--output_dir={out}", *schedule_args(args)]
     env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled",
            "OMP_NUM_THREADS": str(args.torch_threads), "PYTHONPATH": _pythonpath()}
     t0, c0 = time.time(), resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -213,6 +213,18 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
               "loss": curve}
     (out.parent / f"{out.name}.json").write_text(json.dumps(timing))
     return ckpt, timing
+
+
+def schedule_args(args: argparse.Namespace) -> list[str]:
+    """``lerobot-train`` options of ``--lr-schedule``: none for ACT's preset (constant), else the preset's
+    optimizer spelled out (AdamW, ``--lr``, weight decay 1e-4) with a cosine decay after a 5 % warm-up."""
+    if args.lr_schedule == "constant":
+        return []
+    return ["--use_policy_training_preset=false", "--optimizer.type=adamw", f"--optimizer.lr={args.lr}",
+            "--optimizer.weight_decay=0.0001", "--scheduler.type=cosine_decay_with_warmup",
+            f"--scheduler.num_warmup_steps={max(1, args.steps // 20)}",
+            f"--scheduler.num_decay_steps={args.steps}", f"--scheduler.peak_lr={args.lr}",
+            f"--scheduler.decay_lr={args.lr / 100}"]
 
 
 class Server:
@@ -270,7 +282,7 @@ def summarise(records: list[dict], label: str) -> dict:
 
 
 PASSED_ON = {"--ablation", "--out", "--tasks", "--recovery", "--amplitude", "--seed", "--heldout-from",
-             "--scenarios-from", "--reuse"}
+             "--scenarios-from", "--reuse", "--lr-schedule"}
 
 
 def arm_args(spec: str, args: argparse.Namespace) -> tuple[list[str], int]:
@@ -279,6 +291,8 @@ def arm_args(spec: str, args: argparse.Namespace) -> tuple[list[str], int]:
     for token in spec.split("+"):
         if token in ("dart", "replan"):
             extra += ["--recovery", token]
+        elif token == "cosine":
+            extra += ["--lr-schedule", "cosine"]
         elif token.startswith("a="):
             extra += ["--amplitude", token[2:]]
         elif re.fullmatch(r"x\d+", token):
@@ -287,7 +301,7 @@ def arm_args(spec: str, args: argparse.Namespace) -> tuple[list[str], int]:
             extra[1] = token[5:]
         elif token != "plain":
             raise SystemExit(f"--ablation: unknown arm token {token!r} in {spec!r} (expected plain, dart, "
-                             "replan, a=AMPLITUDE, xK, seed=N)")
+                             "replan, cosine, a=AMPLITUDE, xK, seed=N)")
     return ["--tasks", str(tasks), *extra], tasks
 
 
@@ -399,6 +413,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "0.01 by default: without it the policy's chunk switches jitter the held jar past the "
                    "goal's at-rest limit); a negative value turns it off (--chunk-steps)")
     p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--lr-schedule", choices=("constant", "cosine"), default="constant",
+                   help="constant: ACT's preset (AdamW at --lr throughout); cosine: the same AdamW with "
+                   "LeRobot's cosine_decay_with_warmup (5 %% warm-up, then down to --lr / 100 at the last "
+                   "step)")
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--device", default="cpu", help="training device")
     p.add_argument("--serve-device", default="cpu")
