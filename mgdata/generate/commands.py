@@ -247,17 +247,19 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def merge(
         shards: Annotated[list[Path], typer.Argument(
-            help="The shard datasets (mgdata generate --shard i/N), or with --concat any datasets of one "
-                 "family.")],
+            help="The shard datasets (of one mgdata generate --shard i/N or mgdata corrections --shard i/N "
+                 "run), or with --concat any datasets of one family.")],
         out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
         concat: Annotated[bool, typer.Option(
             "--concat", help="Join datasets of different runs (e.g. demos and their corrections) into a "
                              "training set: every episode of the first, then of the next, …")] = False,
     ) -> None:
-        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte; with
-        --concat, join datasets of one family, schema and spec in the order given.
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte (shards
+        of mgdata corrections: the dataset the unsharded run writes); with --concat, join datasets of one
+        family, schema and spec in the order given.
 
         Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        Example: mgdata merge ds/jar_corr_0 ds/jar_corr_1 ds/jar_corr_2 ds/jar_corr_3 --out ds/jar_corr
         Example: mgdata merge --concat datasets/jar datasets/jar_corrections --out datasets/jar_round2
         """
         from mgdata.generate.merge import concat_datasets, merge_shards
