@@ -183,6 +183,9 @@ def register(app: typer.Typer) -> None:
         recipe: Annotated[Path | None, typer.Option(help="Use this recipe file (the one the scenarios were "
                                                          "built from).")] = None,
         grasps: Annotated[Path | None, typer.Option(help="Grasp database folder.")] = None,
+        shard: Annotated[str | None, typer.Option(
+            help="Correct shard i of N ('i/N'): the selected failed rollouts i, i+N, … in the rollouts' "
+                 "order, with the unsharded run's draws; join the N shards with mgdata merge.")] = None,
     ) -> None:
         """Demonstrations restarted where a policy went wrong: for every failed rollout (a violation, or no
         success), restart the planner from the rollout's own recorded state a little before the first
@@ -191,24 +194,27 @@ def register(app: typer.Typer) -> None:
         Candidates are the frames failure − back, failure − 2·back, …; one the restart rules refuse
         (objects moving, the spec already violated, an object in the hand) is passed over, and after
         --candidates frames tried the rollout is left. Each rollout's tries are listed in
-        <out>/meta/mgdata_corrections.json. Re-run to resume.
+        <out>/meta/mgdata_corrections.json. Re-run to resume. With --shard i/N on N machines, mgdata
+        merge joins the N shard datasets into the one an unsharded run writes, byte for byte.
 
         Example: mgdata corrections eval/rollouts/jar --out datasets/jar_corrections --tasks 0-31
+        Example: mgdata corrections eval/rollouts/jar --out ds/jar_corr_1 --tasks 0-31 --shard 1/4
         """
-        from mgdata.generate.corrections import CorrectionJob, correct
+        from mgdata.generate.corrections import NOTHING_TO_CORRECT, CorrectionJob, correct
         from mgdata.generate.summary import ProgressView, RunSummary, print_summary
 
         job = CorrectionJob(rollouts=rollouts, out=out, tasks=parse_ids(tasks), back=back,
                             candidates=candidates, tries=tries, per_failure=per_failure,
                             workers=len(os.sched_getaffinity(0)) if workers is None else workers, seed=seed,
-                            codec=codec, grasps=grasps, recipe=recipe)
+                            codec=codec, grasps=grasps, recipe=recipe, shard=parse_shard(shard))
         if not rollouts.is_dir():
             raise DatasetError(f"{rollouts}: no such rollouts folder")
         console = plain_console()
         with ProgressView(RunSummary(out=out, target=0), console, "corrections") as view:
             summary = correct(job, on_attempt=view.update)
         if not summary.attempts and summary.kept_before == 0 and summary.target == 0:
-            console.print(f"{rollouts}: {summary.stopped}; nothing written")
+            where = "; nothing written" if summary.stopped == NOTHING_TO_CORRECT else f" ({out})"
+            console.print(f"{rollouts}: {summary.stopped}{where}")
             return
         print_summary(summary, console, "corrections")
         console.print(f"tries per rollout: {out / 'meta' / 'mgdata_corrections.json'}")
@@ -241,17 +247,19 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def merge(
         shards: Annotated[list[Path], typer.Argument(
-            help="The shard datasets (mgdata generate --shard i/N), or with --concat any datasets of one "
-                 "family.")],
+            help="The shard datasets (of one mgdata generate --shard i/N or mgdata corrections --shard i/N "
+                 "run), or with --concat any datasets of one family.")],
         out: Annotated[Path, typer.Option("--out", help="Merged dataset folder (must not exist).")],
         concat: Annotated[bool, typer.Option(
             "--concat", help="Join datasets of different runs (e.g. demos and their corrections) into a "
                              "training set: every episode of the first, then of the next, …")] = False,
     ) -> None:
-        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte; with
-        --concat, join datasets of one family, schema and spec in the order given.
+        """Join shard datasets into the dataset one run over all their tasks writes, byte for byte (shards
+        of mgdata corrections: the dataset the unsharded run writes); with --concat, join datasets of one
+        family, schema and spec in the order given.
 
         Example: mgdata merge ds/jar_0 ds/jar_1 --out datasets/jar
+        Example: mgdata merge ds/jar_corr_0 ds/jar_corr_1 ds/jar_corr_2 ds/jar_corr_3 --out ds/jar_corr
         Example: mgdata merge --concat datasets/jar datasets/jar_corrections --out datasets/jar_round2
         """
         from mgdata.generate.merge import concat_datasets, merge_shards

@@ -20,19 +20,26 @@ recorded and distinct.
 
 A rollout is the unit of work: a worker runs all of its tries; the main process commits each rollout's kept
 corrections in rollouts-dataset order (same bytes for any worker count) and records what every try gave in
-``meta/mgdata_corrections.json``, so a run that is stopped resumes with the rollouts not yet in that file.
-Rollouts of held-out tasks must not become training data: select the training tasks with ``tasks``.
+``meta/mgdata_corrections.json`` (:mod:`mgdata.generate.correction_report`), so a run that is stopped
+resumes with the rollouts not yet in that file. Rollouts of held-out tasks must not become training data:
+select the training tasks with ``tasks``.
+
+``shard=(i, N)`` (``--shard i/N``) corrects only the selected failed rollouts at positions ``i, i + N, …``
+(in rollouts-dataset order), with the very draws of the unsharded run; its report records the shard, the
+rollouts dataset, ``tasks`` and the settings (a resume must match them), and a shard with no rollout of
+its own is still written, empty. ``mgdata merge`` joins shards ``0 … N−1`` into the dataset the unsharded
+run writes, byte for byte (:func:`mgdata.generate.merge.merge_shards`).
 
 Example::
 
     summary = correct(CorrectionJob(rollouts=Path("eval/rollouts/jar"), out=Path("datasets/jar_corr"),
                                     tasks=(0, 1, 2, 3)))
+    correct(CorrectionJob(rollouts=Path("eval/rollouts/jar"), out=Path("ds/corr_1"), shard=(1, 4)))
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import shutil
 import time
@@ -43,27 +50,29 @@ from typing import Any
 
 import numpy as np
 
-from mgdata.atomic import remove_stale_temps, write_text_atomic
+from mgdata.atomic import remove_stale_temps
 from mgdata.engine.executor import dataset_schema
 from mgdata.engine.inputs import inputs_digest
 from mgdata.episode.timing import Timings
 from mgdata.errors import DatasetError, GraspDBError, RecipeError
+from mgdata.generate.correction_report import REPORT_FILE, CorrectionReport, ShardRecord, rollouts_digest
 from mgdata.generate.resume import RunState
-from mgdata.generate.run import open_dataset, output_error, run_digest, writable_dir
+from mgdata.generate.run import check_shard, open_dataset, output_error, run_digest, writable_dir
 from mgdata.generate.summary import RunSummary
 from mgdata.generate.workers import AttemptDone, AttemptPool, Worker, WorkerConfig
 from mgdata.grasps.db import GraspDB
 from mgdata.interrupts import sigint_deferred
 from mgdata.paths import grasps_dir
 from mgdata.record.commit import work_dir
+from mgdata.record.episode import EpisodeMeta
 from mgdata.record.physics import model_bytes
 from mgdata.record.reader import DatasetReader
 from mgdata.record.writer import DatasetWriter
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.tasks.recipe import Recipe
 
-REPORT_FILE = "meta/mgdata_corrections.json"
 SOURCE = "correction"
+NOTHING_TO_CORRECT = "no failed rollout to correct"
 
 
 @dataclass(frozen=True)
@@ -79,6 +88,8 @@ class CorrectionJob:
         tries: draws per candidate.
         per_failure: kept corrections wanted per failed rollout.
         workers, seed, codec, grasps, recipe: as ``mgdata generate``'s.
+        shard: ``(i, N)``: correct only the selected failed rollouts at positions ``i, i + N, …``
+            (``--shard i/N``; the module docstring).
     """
 
     rollouts: Path
@@ -93,6 +104,7 @@ class CorrectionJob:
     codec: str = "h264"
     grasps: Path | None = None
     recipe: Path | None = None
+    shard: tuple[int, int] | None = None
 
     def settings(self) -> dict[str, int]:
         """What shapes the corrections of a rollout (recorded in ``info.json``; a resume must match)."""
@@ -204,6 +216,8 @@ def _check(job: CorrectionJob) -> tuple[DatasetReader, Recipe, Path]:
             raise RecipeError(f"--{name.replace('_', '-')} must be at least 1, got {getattr(job, name)}")
     if job.seed < 0:
         raise RecipeError(f"--seed must be >= 0, got {job.seed}")
+    if job.shard is not None:
+        check_shard(job.shard)
     reader = DatasetReader(job.rollouts)
     families = sorted({r.meta.family for r in reader.records()})
     if len(families) != 1:
@@ -224,16 +238,36 @@ def _check(job: CorrectionJob) -> tuple[DatasetReader, Recipe, Path]:
     return reader, recipe, grasps
 
 
-def _report(path: Path) -> dict[str, Any]:
-    if not path.exists():
-        return {"rollouts": []}
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        assert isinstance(data["rollouts"], list)
-        return data
-    except (ValueError, KeyError, TypeError, AssertionError) as err:
-        raise DatasetError(f"{path}: unreadable corrections report ({err!r}); it lists the rollouts already "
-                           "corrected: restore it, or use a new --out") from None
+def _shard(job: CorrectionJob, found: list[Failure]) -> ShardRecord | None:
+    """This run's shard (``None`` unsharded): its failed rollouts are ``found[i::N]``."""
+    if job.shard is None:
+        return None
+    i, n = job.shard
+    tasks = None if job.tasks is None else tuple(sorted(set(job.tasks)))
+    return ShardRecord(i, n, rollouts_digest(job.rollouts), tasks, job.settings(),
+                       tuple(f.episode for f in found[i::n]))
+
+
+def _check_shard(report: CorrectionReport, shard: ShardRecord | None, metas: list[EpisodeMeta],
+                 path: Path) -> None:
+    """A dataset is resumed as the same shard of the same run (or unsharded, as unsharded)."""
+    saved = report.shard
+    if shard is None:
+        if saved is not None:
+            raise DatasetError(f"{path}: this dataset is shard {saved.name} of a corrections run; resume it "
+                               f"with --shard {saved.name}, or join the shards with mgdata merge")
+        return
+    if saved is None:
+        if report.rollouts or metas:
+            raise DatasetError(f"{path}: this dataset holds the corrections of a run without --shard; "
+                               "resume it without --shard, or use a new --out")
+        return
+    diffs = ([f"shard {saved.name} vs {shard.name}"] if saved.index != shard.index else []) + \
+        saved.differences(shard)
+    if diffs:
+        raise DatasetError(f"{path}: this dataset is another shard or run than this one "
+                           f"({'; '.join(diffs)}, the dataset's first); resume with the same --shard, "
+                           "--tasks, settings and rollouts, or use a new --out")
 
 
 def _restart_key(meta_variation: Mapping[str, Any]) -> tuple[str, int, str, int, int]:
@@ -253,8 +287,10 @@ def correct(job: CorrectionJob, on_attempt: Callable[[RunSummary], None] | None 
     out = Path(job.out)
     summary = RunSummary(out=out, target=0)
     if not found:
-        summary.stopped = "no failed rollout to correct"
+        summary.stopped = NOTHING_TO_CORRECT  # nothing is written
         return summary
+    shard = _shard(job, found)
+    mine = found if shard is None else found[shard.index::shard.count]
     identity = RunState(recipe.family, job.seed, run_digest(inputs_digest(recipe, grasps), "base")
                         + "/corrections " + " ".join(f"{k}={v}" for k, v in job.settings().items()))
     try:
@@ -267,15 +303,23 @@ def correct(job: CorrectionJob, on_attempt: Callable[[RunSummary], None] | None 
     try:
         report_path = out / REPORT_FILE
         remove_stale_temps(report_path)
-        report = _report(report_path)
-        done = {entry["rollout"] for entry in report["rollouts"]}
-        todo = [f for f in found if f.key not in done]
+        report = CorrectionReport.load(report_path)
+        metas = writer.episodes_meta()
+        _check_shard(report, shard, metas, report_path)
+        if shard is not None and report.shard is None:  # before any rollout: an empty shard is complete
+            report.shard = shard
+            report.save(report_path)
+        done = {entry["rollout"] for entry in report.rollouts}
+        todo = [f for f in mine if f.key not in done]
         summary.kept_before = writer.num_episodes
         summary.target = writer.num_episodes + job.per_failure * len(todo)
+        if not mine:  # found[i::N] is empty only for a shard
+            summary.stopped = f"no failed rollout falls in this shard ({len(found)} in all): an empty shard"
+            return summary
         if not todo:
             summary.stopped = "every failed rollout was corrected before"
             return summary
-        present = {_restart_key(m.variation) for m in writer.episodes_meta()}
+        present = {_restart_key(m.variation) for m in metas}
         stage_dir = work_dir(out) / "staging" / f"corrections-{os.getpid()}"
         config = WorkerConfig(recipe.path, grasps, stage_dir, job.seed, False, writer.video)
         if on_attempt is not None:
@@ -298,7 +342,7 @@ def correct(job: CorrectionJob, on_attempt: Callable[[RunSummary], None] | None 
 
 
 def _loop(job: CorrectionJob, todo: list[Failure], config: WorkerConfig, writer: DatasetWriter,
-          report: dict[str, Any], report_path: Path, present: set[tuple[str, int, str, int, int]],
+          report: CorrectionReport, report_path: Path, present: set[tuple[str, int, str, int, int]],
           summary: RunSummary, start: float, on_attempt: Callable[[RunSummary], None] | None) -> None:
     pending = list(reversed(todo))
     with AttemptPool(config, job.workers) as pool:
@@ -317,11 +361,11 @@ def _loop(job: CorrectionJob, todo: list[Failure], config: WorkerConfig, writer:
                         continue
                     writer.append_staged(attempt.staged)
                 failure = corrected.failure
-                report["rollouts"].append({"rollout": failure.key, "parent": dict(failure.parent),
-                                           "failure": failure.kind, "failure_step": failure.step,
-                                           "corrections": sum(t["kept"] for t in corrected.tries),
-                                           "tries": list(corrected.tries)})
-                write_text_atomic(report_path, json.dumps(report, indent=2) + "\n")
+                report.rollouts.append({"rollout": failure.key, "parent": dict(failure.parent),
+                                        "failure": failure.kind, "failure_step": failure.step,
+                                        "corrections": sum(t["kept"] for t in corrected.tries),
+                                        "tries": list(corrected.tries)})
+                report.save(report_path)
             for attempt in corrected.attempts:
                 summary.add(attempt.result)
             summary.timings.writing += time.process_time() - t0

@@ -142,15 +142,21 @@ def _tasks(job: GenerateJob, recipe: Recipe) -> tuple[int, ...]:
     return tuple(dict.fromkeys(tasks))
 
 
+def check_shard(shard: tuple[int, int]) -> tuple[int, int]:
+    """``shard`` if it is an ``i/N`` with ``0 <= i < N``, else :class:`RecipeError` (``--shard``)."""
+    i, n = shard
+    if not 0 <= i < n:
+        raise RecipeError(f"--shard {i}/{n}: expected i/N with 0 <= i < N")
+    return i, n
+
+
 def shard_tasks(job: GenerateJob, tasks: tuple[int, ...]) -> tuple[int, ...]:
     """The tasks of ``job.shard`` (all of ``tasks`` without one). A shard needs ``--per-task`` (a total
     ``--n`` cannot be split without knowing each task's yield) and tasks in ascending order (the canonical
     order ``mgdata merge`` restores: by draw, then task)."""
     if job.shard is None:
         return tasks
-    i, n = job.shard
-    if not 0 <= i < n:
-        raise RecipeError(f"--shard {i}/{n}: expected i/N with 0 <= i < N")
+    i, n = check_shard(job.shard)
     if job.per_task is None:
         raise RecipeError("--shard needs --per-task (each shard fills the quota of its own tasks)")
     if list(tasks) != sorted(tasks):

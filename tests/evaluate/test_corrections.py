@@ -9,6 +9,8 @@ against the family contract, from the corrections dataset alone.
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,6 +19,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from mgdata.errors import DatasetError
 from mgdata.evaluate.policies import ReplayPolicy
 from mgdata.evaluate.rollout import LoopSettings
 from mgdata.evaluate.run import EvalJob, read_results, run_eval
@@ -27,9 +30,17 @@ from mgdata.record.validate import validate_dataset
 from tests.helpers.cli import mgdata_here
 from tests.helpers.contract import check_kept_contract
 from tests.helpers.generate import jar_recipe
+from tests.helpers.record import dataset_files
 
 HAND = ("hand", "left_finger", "right_finger")
 BACK, CANDIDATES, TRIES = 8, 3, 2
+
+
+def _error_line(proc) -> str:  # type: ignore[no-untyped-def]
+    """The one line a refused command prints (exit status 2, no traceback)."""
+    lines = [line for line in (proc.stdout + proc.stderr).splitlines() if line.strip()]
+    assert proc.returncode == 2 and len(lines) == 1 and "Traceback" not in lines[0], proc
+    return lines[0]
 
 
 @pytest.fixture(scope="module")
@@ -136,11 +147,7 @@ def test_two_workers_write_the_same_bytes(corrected, tmp_path: Path) -> None:  #
     proc = mgdata_here("corrections", job.rollouts, "--out", other, "--back", BACK, "--candidates",
                        CANDIDATES, "--tries", TRIES, "--recipe", job.recipe, "--workers", 2)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-
-    def files(root: Path) -> dict[str, bytes]:
-        return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*")
-                if p.is_file() and ".work" not in p.parts}
-    assert files(other) == files(out)
+    assert dataset_files(other) == dataset_files(out)
     # demos and their corrections join into one training set (here: the two copies), in the order given
     joined = tmp_path / "joined"
     proc = mgdata_here("merge", "--concat", out, other, "--out", joined)
@@ -167,3 +174,82 @@ def test_bad_input_is_one_error_line_and_writes_nothing(rollouts: Path, demo: Pa
         assert not out.exists(), args
     proc = mgdata_here("corrections", rollouts, "--out", rollouts)
     assert proc.returncode != 0 and "not into the rollouts" in proc.stdout + proc.stderr
+
+
+@pytest.fixture(scope="module")
+def shards(corrected, tmp_path_factory: pytest.TempPathFactory) -> list[Path]:  # type: ignore[no-untyped-def]
+    """``--shard 0/2`` and ``1/2`` of the ``corrected`` run: one failed rollout each."""
+    job, _ = corrected
+    tmp = tmp_path_factory.mktemp("corr_shards")
+    found = []
+    for i in range(2):
+        proc = mgdata_here("corrections", job.rollouts, "--out", tmp / f"corr_{i}", "--back", BACK,
+                           "--candidates", CANDIDATES, "--tries", TRIES, "--recipe", job.recipe,
+                           "--workers", 1, "--shard", f"{i}/2")
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        found.append(tmp / f"corr_{i}")
+    return found
+
+
+def test_shards_merge_into_the_unsharded_dataset_byte_for_byte(corrected, shards, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    job, out = corrected
+    for i, shard in enumerate(shards):
+        record = json.loads((shard / REPORT_FILE).read_text())["shard"]
+        assert (record["index"], record["count"], record["episodes"]) == (i, 2, [i])
+        assert record["settings"] == job.settings() and record["tasks"] is None
+        parents = {r.meta.variation["restart"]["parent"]["episode"] for r in DatasetReader(shard).records()}
+        assert parents <= {i}
+    merged = tmp_path / "merged"
+    proc = mgdata_here("merge", shards[1], shards[0], "--out", merged)  # any order
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert dataset_files(merged) == dataset_files(out)
+    # a shard with no failed rollout of its own is written empty and completes its run: shards 0/3 and 1/3
+    # hold what 0/2 and 1/2 hold (found[0::3] = found[0::2] for two failed rollouts), their reports N = 3
+    empty = tmp_path / "corr_2of3"
+    assert "an empty shard" in correct(CorrectionJob(job.rollouts, empty, back=BACK, candidates=CANDIDATES,
+                                                     tries=TRIES, recipe=job.recipe, shard=(2, 3))).stopped
+    assert DatasetReader(empty).num_episodes == 0
+    thirds = []
+    for i, shard in enumerate(shards):
+        thirds.append(tmp_path / f"corr_{i}of3")
+        shutil.copytree(shard, thirds[-1])
+        report = json.loads((thirds[-1] / REPORT_FILE).read_text())
+        report["shard"]["count"] = 3
+        (thirds[-1] / REPORT_FILE).write_text(json.dumps(report, indent=2) + "\n")
+    proc = mgdata_here("merge", *thirds, empty, "--out", tmp_path / "merged3")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert dataset_files(tmp_path / "merged3") == dataset_files(out)
+
+
+def test_a_shard_mismatch_is_one_error_line_and_writes_nothing(corrected, shards, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    job, out = corrected
+    other = tmp_path / "corr_1_back9"  # shard 1/2 of a run with other settings (its report says so)
+    shutil.copytree(shards[1], other)
+    report = json.loads((other / REPORT_FILE).read_text())
+    report["shard"]["settings"]["back"] = BACK + 1
+    (other / REPORT_FILE).write_text(json.dumps(report, indent=2) + "\n")
+    unfinished = tmp_path / "corr_1_unfinished"  # shard 1/2 stopped before its rollout was committed
+    shutil.copytree(shards[1], unfinished)
+    report = json.loads((unfinished / REPORT_FILE).read_text())
+    report["rollouts"] = []
+    (unfinished / REPORT_FILE).write_text(json.dumps(report, indent=2) + "\n")
+    cases = [((shards[0],), "shard 1/2 of the corrections run missing"),
+             ((shards[0], shards[0]), "shard 0/2 is given twice"),
+             ((shards[0], other), "settings {'back': 8"),
+             ((shards[0], unfinished), "shard 1/2 is incomplete (0 of 1"),
+             ((shards[0], out), "no shard in its meta/mgdata_corrections.json")]
+    merged = tmp_path / "merged"
+    for args, message in cases:
+        assert message in _error_line(mgdata_here("merge", *args, "--out", merged)), args
+        assert not merged.exists() and not list(tmp_path.glob("merged*")), args
+    # a shard resumes only as itself; an unsharded dataset only unsharded
+    before = dataset_files(shards[0])
+    for where, shard, message in ((shards[0], (1, 2), "shard 0/2 vs 1/2"), (shards[0], None, "--shard 0/2"),
+                                  (out, (0, 2), "without --shard")):
+        with pytest.raises(DatasetError, match=re.escape(message)):
+            correct(CorrectionJob(job.rollouts, where, back=BACK, candidates=CANDIDATES, tries=TRIES,
+                                  recipe=job.recipe, shard=shard))
+    assert dataset_files(shards[0]) == before
+    for text, message in (("1of2", "expected i/N"), ("2/2", "0 <= i < N")):
+        line = _error_line(mgdata_here("corrections", job.rollouts, "--out", tmp_path / "c", "--shard", text))
+        assert message in line and not (tmp_path / "c").exists(), line
