@@ -20,11 +20,13 @@ from mgdata.engine.init_gate import base_task, cached_grasp_db
 from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.record.physics import physics_state, set_physics_state
+from mgdata.sim.particles import PARK_Z
 from mgdata.skeleton.skeleton import load_family_recipe
 
 HAND = ("hand", "left_finger", "right_finger")
-PARKED = -5.0
-"""Below this height a dust speck has been wiped (the scene parks wiped specks 10 m under the floor)."""
+PARKED = PARK_Z / 2
+"""Below this height a dust speck has been wiped (the scene parks wiped specks at ``PARK_Z``, 10 m under the
+floor)."""
 
 
 @pytest.fixture
@@ -130,7 +132,7 @@ def test_dusty_clean_tray_runs_only_the_pour(executor) -> None:  # type: ignore[
     m, d = ex.scene.model, ex.scene.data
     specks = [int(m.body_mocapid[b]) for b in range(m.nbody) if m.body(b).name.startswith("dust/d")]
     assert specks and all(d.mocap_pos[specks, 2] > 0.0)  # dusty at the start
-    d.mocap_pos[specks, 2] = -10.0  # wiped: every speck parked under the floor
+    d.mocap_pos[specks, 2] = PARK_Z  # wiped: every speck parked under the floor
     start = physics_state(m, d)
     touched = set()
     for state in _restart(ex, start, ["pour"]):
