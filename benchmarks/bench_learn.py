@@ -191,7 +191,7 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
            "--policy.use_vae=false", f"--policy.chunk_size={args.chunk}",
            f"--policy.n_action_steps={args.chunk}",
            f"--policy.optimizer_lr={args.lr}", f"--batch_size={args.batch}", f"--steps={args.steps}",
-           f"--save_freq={max(1, min(args.steps // 4, 500))}", f"--log_freq={log_freq}",
+           f"--save_freq={save_interval(args)}", f"--log_freq={log_freq}",
            f"--num_workers={args.loader_workers}",
            f"--seed={args.seed}", f"--output_dir={out}", *schedule_args(args)]
     env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled",
@@ -213,6 +213,11 @@ def train(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[Path, dic
               "loss": curve}
     (out.parent / f"{out.name}.json").write_text(json.dumps(timing))
     return ckpt, timing
+
+
+def save_interval(args: argparse.Namespace) -> int:
+    """Training steps between saved checkpoints."""
+    return max(1, min(args.steps // 4, 500))
 
 
 def schedule_args(args: argparse.Namespace) -> list[str]:
@@ -268,6 +273,24 @@ def evaluate(args: argparse.Namespace, url: str, scenarios: Path, out: Path,
         cmd += ["--ensemble", str(args.ensemble)]
     run(cmd, env, out.parent / f"{out.name}.log")
     return [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines() if line.strip()]
+
+
+def score_checkpoints(args: argparse.Namespace, out: Path, scenarios: Path,
+                      env: dict[str, str]) -> dict[str, dict]:
+    """``--checkpoints``: each named checkpoint of ``out/train`` served and scored on the held-out starts
+    (``heldout@STEPS``)."""
+    results = {}
+    for steps in args.checkpoints:
+        ckpt = out / "train" / "checkpoints" / f"{steps:06d}" / "pretrained_model"
+        if not ckpt.is_dir():
+            raise SystemExit(f"--checkpoints: no checkpoint {ckpt} (saved every {save_interval(args)} steps)")
+        server = Server(args, ckpt, out / f"serve_{steps}.log")
+        try:
+            records = evaluate(args, server.url, scenarios, out / f"eval_heldout_{steps}", env)
+        finally:
+            server.close()
+        results[f"heldout@{steps}"] = summarise(records, "heldout")
+    return results
 
 
 def summarise(records: list[dict], label: str) -> dict:
@@ -383,7 +406,26 @@ def print_ablation(reports: dict[str, dict]) -> None:
     for r in rows:
         print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
     for spec, rep in reports.items():
+        ckpts = {k: r for k, r in rep.get("eval", {}).items() if k.startswith("heldout@")}
+        if ckpts:
+            ssr = [float(r["ssr"]) for r in ckpts.values()]
+            print(f"{spec}: held-out SSR by checkpoint: "
+                  + ", ".join(f"{k[8:]} {float(r['ssr']):.1f} % (EVR {_rate(r, 'evr')})"
+                              for k, r in ckpts.items())
+                  + f"; mean {np.mean(ssr):.1f} %, spread {min(ssr):.1f}-{max(ssr):.1f} %")
+    for spec, rep in reports.items():
         print(f"{spec}: {rep.get('command', '')}")
+
+
+def steps_list(text: str) -> tuple[int, ...]:
+    """``--checkpoints 15000,17500`` → (15000, 17500)."""
+    try:
+        steps = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected training steps, e.g. 15000,17500") from None
+    if any(n <= 0 for n in steps):
+        raise argparse.ArgumentTypeError(f"{text!r}: steps must be positive")
+    return steps
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -444,6 +486,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "starts, only the data changed, and print their table; a spec joins with '+': "
                    "'plain', 'dart' or 'replan' (recovery), 'a=0.05' (its amplitude), 'x5' (5x the layouts, "
                    "--per-task each), 'seed=1001' (another training seed); e.g. plain,dart,x5,dart+seed=1001")
+    p.add_argument("--checkpoints", type=steps_list, default=(), metavar="STEPS",
+                   help="also score these saved checkpoints (comma-separated training steps, multiples of "
+                   "the save interval, min(steps/4, 500)) on the held-out starts: one run's closed-loop "
+                   "rate swings from checkpoint to checkpoint, and their mean is a steadier figure")
     p.add_argument("--stop-after", choices=("data", "train"), default=None)
     p.add_argument("--record", action="store_true",
                    help="record the trained-layout rollouts (mgdata eval --record: eval_seen/rollouts), the "
@@ -455,6 +501,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main() -> None:
     p = build_parser()
     args = p.parse_args()
+    bad = [n for n in args.checkpoints if n > args.steps or n % save_interval(args)]
+    if bad:
+        p.error(f"--checkpoints {bad[0]}: not saved (checkpoints every {save_interval(args)} steps up to "
+                f"--steps {args.steps})")
     if args.ablation:
         ablation(args, p)
         return
@@ -533,6 +583,8 @@ def main() -> None:
             results["heldout"] = summarise(records, "heldout")
     finally:
         server.close()
+    if heldout:
+        results.update(score_checkpoints(args, out, scen["heldout"], {"MGDATA_ROOT": str(eval_root)}))
     report["eval"] = results
     report["wall_s"] = round(time.time() - t_start, 1)
     (out / "report.json").write_text(json.dumps(report, indent=1, default=str))
