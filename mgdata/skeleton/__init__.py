@@ -16,6 +16,7 @@ The generic idioms family skeletons share, one concept per module:
 ``opening``         lowering a held object into a rectangular opening (a pulled-out drawer)
 ``pick_place``      a tagged pick (open … lift) and place (lower, release, retreat), as segments
 ``relocate``        moving an object out of the way onto a free spot
+``pile``            a stack taken off top first onto a pile beside it (the spot, the place poses)
 ``wipe``            wiping a patch off a tray's floor with a held tool (its recipe keys)
 ``pour``            pouring from a held carrier into a tray (its recipe keys)
 ``task_rng``        task-seeded random streams by name (``ctx.task_rng(name)``)
