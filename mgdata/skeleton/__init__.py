@@ -19,6 +19,7 @@ The generic idioms family skeletons share, one concept per module:
 ``pile``            a stack taken off top first onto a pile beside it (the spot, the place poses)
 ``wipe``            wiping a patch off a tray's floor with a held tool (its recipe keys)
 ``pour``            pouring from a held carrier into a tray (its recipe keys)
+``carrier``         picking the carrier a pour starts from (grasps clear of the food, on its pouring side)
 ``task_rng``        task-seeded random streams by name (``ctx.task_rng(name)``)
 ==================  ==========================================================================================
 """
