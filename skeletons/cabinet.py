@@ -43,7 +43,6 @@ from mgdata.skeleton.relocate import Relocate
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Knob, Param, RecipeKeys, register
 from mgdata.skeleton.spots import SpotRules, free_spot
 from mgdata.skeleton.whatif import keeps_clear, live_what_if, planner_what_if
-from mgdata.tasks.placer import footprint_radius
 
 CABINET, TARGET, OBSTACLE = "cabinet", "target", "obstacle"
 DRAWER = Drawer(CABINET)
@@ -156,8 +155,7 @@ class CabinetSkeleton(FamilySkeleton):
 
     def in_the_way(self, ctx: Context) -> list[str]:
         """The blockers (obstacle first) whose footprint comes within ``sweep_margin`` of the sweep."""
-        return [r for r in BLOCKERS if DRAWER.sweep_gap(ctx, ctx.object_pose(r).pos[:2], self.stroke(ctx))
-                < footprint_radius(ctx.task.object(r).model) + ctx.param("sweep_margin")]
+        return DRAWER.in_the_way(ctx, BLOCKERS, stroke=self.stroke(ctx), margin=ctx.param("sweep_margin"))
 
     # -- putting things down ---------------------------------------------------------------------------
     def _spot_target(self, ctx: Context, role: str) -> tuple[Pose, Pose]:
@@ -186,13 +184,10 @@ class CabinetSkeleton(FamilySkeleton):
     def _later_arm_path(self, ctx: Context, role: str) -> list[np.ndarray]:
         """The arm's path after ``role`` is put down, as the executor will plan it (objects left out): handle
         approach, pull, back-off (the push retraces the pull), and the target's pre-grasp and grasp."""
-        rng, grasp = ctx.task_rng("arm_path_later"), ctx.memo["handle"]
+        rng = ctx.task_rng("arm_path_later")
         loose = AllowedContacts(tuple((ROOT_BODY, o.name) for o in ctx.task.objects))
-        ctx.planner.sync(ctx.scene.data)
-        pose, standoff = DRAWER.handle(ctx, grasp), ctx.variation["handle_standoff"]
-        pulled = Pose(pose.pos + DRAWER.axis(ctx) * self.stroke(ctx), pose.quat)
-        path = arm_path(ctx, [backed_off(pose, standoff), pose, pulled, backed_off(pulled, standoff)], rng,
-                        q0=ctx.q_cmd, allowed=loose)
+        path = HANDLE.arm_path(ctx, ctx.memo["handle"], by=self.stroke(ctx),
+                               standoff=ctx.variation["handle_standoff"], rng=rng, allowed=loose)
         if len(path) == 4 and role != TARGET and "grasp" in ctx.memo:
             grasp_tcp = Pose.from_matrix(ctx.object_pose(TARGET).matrix() @ ctx.memo["grasp"].matrix())
             path += arm_path(ctx, [backed_off(grasp_tcp, ctx.variation["grasp_standoff"]), grasp_tcp], rng,

@@ -18,11 +18,11 @@ one, docs/families.md) with a food item (``food``) inside:
    there ``sponge_settle_steps`` while the arm catches up, release, retreat. Released at once, where the
    arm had stopped short, it fell 7 mm and sank 2.4 mm into the table; lowered at full speed, it was driven
    into the table and tipped on an edge.
-4. **Grasp the source** (Layer 2's pick): a DB rim pinch from straight above (``carrier_tilt_max_deg``: the
-   pour is tuned for it, not for the pinch along a bowl's wall) whose open fingertips keep
-   ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on a bowl's far side or a tray's
-   near side in the roll the tilt needs (:meth:`CarrierPick.pouring_side`), round-robin over the reachable
-   ones; lift clear of everything.
+4. **Grasp the source** (Layer 2's :class:`~mgdata.skeleton.carrier.CarrierPick`): a DB rim pinch from
+   straight above (``carrier_tilt_max_deg``: the pour is tuned for it, not for the pinch along a bowl's
+   wall) whose open fingertips keep ``food_clearance`` from the food (:meth:`CarrierPick.clear_of_food`), on
+   a bowl's far side or a tray's near side in the roll the tilt needs (:meth:`CarrierPick.pouring_side`),
+   round-robin over the reachable ones; lift clear of everything.
 5. **Pour** (Layer 2's :class:`~mgdata.skeleton.pour.Pour`): carry the source (``carry_speed``; a bowl in
    joint space, a tray level in a straight line) to the pour stance, then tilt it in ``pour_steps`` turns
    about a horizontal axis, its far side down, to ``pour_angle_deg`` (at least ``pour_slide_margin_deg``
@@ -41,7 +41,6 @@ pouring onto a dusty tray is a violation at the step the food lands, not only a 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -50,15 +49,15 @@ import numpy as np
 from mgdata.grasps.db import Grasp
 from mgdata.motion import Pose
 from mgdata.sim.geometry import LowestPoint
-from mgdata.sim.robot import FINGER_DEPTH, FINGER_HALF_WIDTH, FINGERTIP_REACH, GRIPPER_MAX_OPENING, ROOT_BODY
 from mgdata.skeleton import segment as s
+from mgdata.skeleton.carrier import CARRIER_KEYS, CarrierPick
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.grasp_choice import choose_grasp
 from mgdata.skeleton.phase import Phase
 from mgdata.skeleton.pick_and_carry import PICK_AND_CARRY_KEYS, PickAndCarry
 from mgdata.skeleton.pick_place import PickPlace
-from mgdata.skeleton.poses import UP, backed_off, raised
-from mgdata.skeleton.pour import POUR_KEYS, POUR_KNOB, Pour, is_round
+from mgdata.skeleton.poses import backed_off, raised
+from mgdata.skeleton.pour import POUR_KEYS, POUR_KNOB, Pour
 from mgdata.skeleton.skeleton import FamilySkeleton, Infeasible, Param, RecipeKeys, register
 from mgdata.skeleton.wipe import WIPE_KEYS, WIPE_KNOB, Wipe
 
@@ -67,67 +66,6 @@ _PICK_PARAMS = ("open_steps", "grasp_settle_steps", "close_steps", "lift_margin"
 _PICK_KNOBS = ("grasp_standoff", "grasp_height", "lift_height")
 SPONGE = PickPlace("sponge", tag="sponge_", renamed={"pre_grasp": "pre", "grasp_settle": "settle"})
 """The sponge's pick and put-back segments (``sponge_open``, ``sponge_pre`` … ``sponge_retreat``)."""
-
-
-@dataclass(frozen=True)
-class CarrierPick(PickAndCarry):
-    """Pick-and-carry of the source carrier by grasps that keep the open hand's fingertips away from the
-    food riding in it (:meth:`clear_of_food`) and lie on its pouring side (:meth:`pouring_side`)."""
-
-    food: str = "food"
-
-    def reachable_grasps(self, ctx: Context) -> tuple[Grasp, ...]:
-        vertical = tuple(g for g in ctx.grasps.get(self.obj, ()) if self.vertical(ctx, g))
-        ctx = replace(ctx, grasps={**ctx.grasps, self.obj: vertical})
-        return tuple(g for g in super().reachable_grasps(ctx)
-                     if self.clear_of_food(ctx, g) and self.pouring_side(ctx, g))
-
-    def vertical(self, ctx: Context, grasp: Grasp) -> bool:
-        """Does the grasp approach within ``carrier_tilt_max_deg`` of straight down (in the carrier's
-        frame)? The pour is tuned for the vertical pinch, not for a bowl's pinch along its sloping wall."""
-        down = -float(grasp.matrix()[2, 2])
-        return down >= math.cos(math.radians(ctx.param("carrier_tilt_max_deg")))
-
-    def pouring_side(self, ctx: Context, grasp: Grasp) -> bool:
-        """Does the grasp hold the carrier from the side it pours from: a bowl's far side (the grasp's radius
-        within ``pour_side_deg`` of the direction away from the robot), a tray's near side, turned by the
-        hand's roll about its own +x axis? Tilting a bowl's opposite rim down turns the hand to point away
-        from the robot, a pose the arm reaches past 90°; from the near side it would have to point back at
-        itself. A tray turns about its far wall's edge with the hand toward the robot
-        (:class:`~mgdata.skeleton.pour.Pour`): pinched on its far wall, the stance needs the hand turned
-        round, which the wrist's range gives only on a flipped shoulder where the tilt cannot go on; and of
-        the near pinch's two rolls, the arm follows the tilt only with the one turning about the hand's +x
-        (the other's tilt steps lose their IK or jump a joint at every stance: docs/families.md)."""
-        obj = ctx.object_pose(self.obj)
-        held = obj.matrix() @ grasp.matrix()
-        radial = held[:2, 3] - obj.pos[:2]
-        away = obj.pos[:2] - ctx.scene.data.xpos[ctx.scene.model.body(ROOT_BODY).id][:2]
-        cos = radial @ away / max(np.linalg.norm(radial) * np.linalg.norm(away), 1e-9)
-        side = math.cos(math.radians(ctx.param("pour_side_deg")))
-        if is_round(ctx.scene.object_model(self.obj)):
-            return bool(cos >= side)
-        tilt_axis = np.cross([*radial, 0.0], UP)  # as the pour's: turning about it lowers the far wall
-        return bool(-cos >= side and tilt_axis @ held[:3, 0] > 0.0)
-
-    def clear_of_food(self, ctx: Context, grasp: Grasp) -> bool:
-        """Do both fingertips of the open hand at the grasp stay ``food_clearance`` clear of the food's
-        bounding box (horizontally: of its enclosing circle; or above its top)? A fingertip is the finger's
-        footprint near its tip, ``FINGER_HALF_WIDTH`` either side of the closing plane and ``FINGER_DEPTH``
-        back from its pad: the back of the finger inside a bowl is what comes over the food."""
-        tcp = ctx.object_pose(self.obj).matrix() @ grasp.matrix()
-        food = ctx.object_pose(self.food)
-        size = np.asarray(ctx.scene.object_model(self.food).size)
-        clear = ctx.param("food_clearance")
-        reach = float(np.hypot(size[0], size[1])) / 2 + clear
-        if (tcp[:3, 3] + tcp[:3, 2] * FINGERTIP_REACH)[2] >= food.pos[2] + size[2] + clear:
-            return True  # the fingertips stay above the food
-        across, out, _ = tcp[:3, :3].T @ (food.pos - tcp[:3, 3])  # the food's centre in the hand's frame
-        pad = GRIPPER_MAX_OPENING / 2
-        for side in (1.0, -1.0):
-            behind = max(pad - side * out, side * out - pad - FINGER_DEPTH, 0.0)
-            if math.hypot(max(abs(across) - FINGER_HALF_WIDTH, 0.0), behind) < reach:
-                return False
-        return True
 
 
 @dataclass(frozen=True)
@@ -149,12 +87,7 @@ class DustySkeleton(FamilySkeleton):
     name = "dusty"
     recipe_keys = RecipeKeys(params=(
         *(p for p in PICK_AND_CARRY_KEYS.params if p.name in _PICK_PARAMS),
-        Param("food_clearance", float, "m the open fingertips of a carrier grasp keep from the food",
-              0.0, 0.2),
-        Param("pour_side_deg", float, "deg a carrier grasp's radius is at most from the direction away from "
-              "the robot (a bowl's; a tray's from the direction towards it)", 0.0, 180.0),
-        Param("carrier_tilt_max_deg", float, "deg a carrier grasp's approach leans from straight down at "
-              "most", 0.0, 90.0),
+        *CARRIER_KEYS.params,
         Param("sponge_grasp_raise", float, "m the sponge's DB grasp is raised along its vertical", 0.0, 0.05),
         Param("sponge_lift", float, "m the sponge's bottom clears the tallest object when moved", 0.0, 0.2),
     )) + WIPE_KEYS + RecipeKeys(params=(

@@ -1,5 +1,6 @@
 """Driving an articulation by its handle: a sliding joint (a drawer) moved by a grasp on its handle
-(:class:`Slide`, :class:`Drawer`), and the segments and targets that do it (:class:`HandleDrive`).
+(:class:`Slide`, :class:`Drawer`: what it sweeps, what is in its way), and the segments, targets and arm path
+that do it (:class:`HandleDrive`).
 
 The slide runs along the object's own +x; its position is the joint's qpos (m, 0 closed). Handle grasps
 come from the grasp DB in the moving link's frame (:meth:`~mgdata.grasps.db.Grasp.world_matrix`).
@@ -23,6 +24,8 @@ from mgdata.motion import AllowedContacts, MotionFailure, Pose
 from mgdata.skeleton import segment as s
 from mgdata.skeleton.opening import Opening
 from mgdata.skeleton.poses import backed_off
+from mgdata.skeleton.reach import arm_path
+from mgdata.tasks.placer import footprint_radius
 
 if TYPE_CHECKING:
     from mgdata.grasps.db import Grasp
@@ -105,6 +108,12 @@ class Drawer(Slide):
         hi = np.array([geo["handle_pos"][0] + geo["handle_radius"] + stroke, hy])
         return float(np.hypot(*np.maximum(np.maximum(lo - local, local - hi), 0.0)))
 
+    def in_the_way(self, ctx: Context, names: Sequence[str], *, stroke: float, margin: float) -> list[str]:
+        """Those of the task objects ``names`` (in their order) whose footprint comes within ``margin`` m of
+        what the drawer sweeps when opened ``stroke`` m (:meth:`sweep_gap`)."""
+        return [n for n in names if self.sweep_gap(ctx, ctx.object_pose(n).pos[:2], stroke)
+                < footprint_radius(ctx.task.object(n).model) + margin]
+
     def opening(self, ctx: Context) -> Opening:
         """The part of the drawer's interior outside the carcass now (as it is open)."""
         geo, q = ctx.scene.object_model(self.obj).geometry, self.q(ctx)
@@ -144,6 +153,18 @@ class HandleDrive:
                          speed=speed),
                 s.gripper(f"{tag}release", "open", steps=open_steps),
                 s.linear(f"{tag}back", "handle_back", allow=self.touch)]
+
+    def arm_path(self, ctx: Context, grasp: Grasp, *, by: float, standoff: float, rng: np.random.Generator,
+                 allowed: AllowedContacts) -> list[np.ndarray]:
+        """The arm's path moving the slide ``by`` m with handle grasp ``grasp``, as the executor will plan it
+        from the commanded configuration (:func:`~mgdata.skeleton.reach.arm_path`, the pairs in ``allowed``
+        may touch): the pre-grasp ``standoff`` m back, the handle, the handle moved, ``standoff`` m back from
+        there. The planner is synced to the live scene first."""
+        ctx.planner.sync(ctx.scene.data)
+        pose = self.slide.handle(ctx, grasp)
+        moved = Pose(pose.pos + self.slide.axis(ctx) * by, pose.quat)
+        return arm_path(ctx, [backed_off(pose, standoff), pose, moved, backed_off(moved, standoff)], rng,
+                        q0=ctx.q_cmd, allowed=allowed)
 
     def target(self, ctx: Context, name: str, grasp: Grasp, *, standoff: float, retreat: float,
                ends: Mapping[str, float]) -> Pose | None:
