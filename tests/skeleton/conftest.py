@@ -11,7 +11,7 @@ from mgdata.grasps.db import GraspDB
 from mgdata.paths import grasps_dir
 from mgdata.skeleton.context import Context
 from mgdata.skeleton.skeleton import load_family_recipe
-from mgdata.skeleton.variation import draw_variation
+from tests.helpers.attempt_context import fresh_context
 
 
 @pytest.fixture(scope="package")
@@ -22,9 +22,5 @@ def cabinet_executor() -> Executor:
 
 @pytest.fixture
 def ctx(cabinet_executor: Executor) -> Context:
-    """A fresh attempt context (draw 1) on the reset cabinet scene, the planner synced to it."""
-    ex = cabinet_executor
-    ex.scene.reset()
-    ex.planner.sync(ex.scene.data)
-    var = draw_variation(ex.task.family, ex.task.task_id, 1, 0, ex.recipe.variation)
-    return Context(ex.task, ex.scene, ex.planner, var, ex.grasps, ex.scene.arm_q())
+    """A fresh attempt context (draw 1) on the reset cabinet scene."""
+    return fresh_context(cabinet_executor, 1)

@@ -15,8 +15,8 @@ from mgdata.skeleton.pile import Pile
 from mgdata.skeleton.poses import held_object
 from mgdata.skeleton.skeleton import load_family_recipe
 from mgdata.skeleton.spots import clear_of, footprints, in_box
-from mgdata.skeleton.variation import draw_variation
 from mgdata.tasks.placer import footprint_radius
+from tests.helpers.attempt_context import fresh_context
 
 STACK = ("stack_0", "stack_1", "stack_2")
 TOP = PickAndCarry("stack_2", grasp_filter=("top_down",), tag="s0/", support="stack_1")
@@ -32,11 +32,7 @@ def stack_executor() -> Executor:
 
 @pytest.fixture
 def ctx(stack_executor: Executor) -> Context:
-    ex = stack_executor
-    ex.scene.reset()
-    ex.planner.sync(ex.scene.data)
-    var = draw_variation(ex.task.family, ex.task.task_id, 0, 0, ex.recipe.variation)
-    return Context(ex.task, ex.scene, ex.planner, var, ex.grasps, ex.scene.arm_q())
+    return fresh_context(stack_executor, 0)
 
 
 def test_the_spot_is_on_a_ring_beside_the_pack_in_the_region_clear_of_the_rest(ctx: Context) -> None:
