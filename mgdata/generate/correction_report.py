@@ -26,7 +26,7 @@ from mgdata.atomic import write_text_atomic
 from mgdata.errors import DatasetError
 from mgdata.record import layout
 
-REPORT_FILE = "meta/mgdata_corrections.json"
+REPORT_FILE = layout.CORRECTIONS_PATH
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,7 @@ from mgdata.record import layout
 from mgdata.record.integrity import check_intact
 from mgdata.record.reader import DatasetReader
 from mgdata.record.restage import restage
-from mgdata.record.writer import DatasetWriter
+from mgdata.record.writer import CARRIED_KEYS, RUN_IDENTITY, DatasetWriter
 
 
 def merge_shards(shards: list[Path], out: Path) -> int:
@@ -165,7 +165,7 @@ def _merge_corrections(readers: list[DatasetReader], out: Path) -> int:
                    for rec in r.records())
     # the run's own info.json keys, in the order it wrote them (create_like would put the rest first)
     mg = readers[0].info["mgdata"]
-    own = {k: v for k, v in mg.items() if k in ("generator", "physics_gate", "recovery", "corrections")}
+    own = {k: v for k, v in mg.items() if k in RUN_IDENTITY + CARRIED_KEYS}
     part = _build(readers, [(k, e) for _, k, e in order], out, mgdata=own)
     entries = sorted((e for rep in reports for e in rep.rollouts), key=lambda e: int(e["parent"]["episode"]))
     CorrectionReport(entries).save(part / REPORT_FILE)

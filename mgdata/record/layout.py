@@ -55,6 +55,9 @@ EPISODES_PATH = EPISODES_DIR + "/" + CHUNK_FILE + ".parquet"
 SCENES_PATH = SCENES_DIR + "/" + CHUNK_FILE + ".parquet"
 DATA_PATH = "data/" + CHUNK_FILE + ".parquet"
 VIDEO_PATH = "videos/{video_key}/" + CHUNK_FILE + ".mp4"
+# A corrections run's ledger (mgdata/generate/correction_report.py): every failed rollout it tried. Written
+# after the episodes, so not in the checksums; a copy of the dataset (render, validate --repair) keeps it.
+CORRECTIONS_PATH = "meta/mgdata_corrections.json"
 # mgdata's private work area inside a dataset (staged episodes, pending commits); empty after close().
 WORK_DIR = ".mgdata"
 

@@ -63,6 +63,10 @@ from mgdata.record.video import VideoSettings, remux
 from mgdata.spec import SafetySpec
 
 _MB = 1024 * 1024
+# info.json's ``mgdata`` keys a copy of a dataset carries: those of the run that made it (a copy of the same
+# episodes: render, repair, the merge of a run's shards), then the physical promises every copy keeps.
+RUN_IDENTITY = ("generator", "corrections")
+CARRIED_KEYS = ("physics_gate", "recovery")
 
 
 class DatasetWriter:
@@ -154,16 +158,17 @@ class DatasetWriter:
                     video: VideoSettings | None = None, mgdata: dict | None = None,
                     identity: bool = True) -> DatasetWriter:
         """Start a new dataset in ``root`` written as ``source`` was: its video settings, spec, file sizes,
-        the gate's promises (its physical bounds included) and, with ``identity``, its generator's inputs
-        digest (after the keys of ``mgdata``); ``schema`` and ``video`` replace ``source``'s (a re-render).
+        the gate's promises (its physical bounds included) and, with ``identity``, the run that made it (its
+        generator's inputs digest, a corrections run's settings and ledger), after the keys of ``mgdata``;
+        ``schema`` and ``video`` replace ``source``'s (a re-render).
         What ``merge``, ``render`` and ``validate --repair`` write."""
         info, mg = source.info, source.info["mgdata"]
         video = video or source.video
         extra = dict(mgdata or {})
-        for key in ("generator", "physics_gate", "recovery")[0 if identity else 1:]:
+        for key in (RUN_IDENTITY if identity else ()) + CARRIED_KEYS:
             if mg.get(key) is not None:
                 extra[key] = mg[key]
-        return cls.create(
+        writer = cls.create(
             root, schema or source.schema, codec=video.codec, crf=video.crf, preset=video.preset,
             gop=video.gop, spec=source.spec, chunks_size=int(info["chunks_size"]),
             data_file_mb=int(info["data_files_size_in_mb"]),
@@ -171,6 +176,10 @@ class DatasetWriter:
             video_file_seconds=float(mg["video_file_seconds"]), hold_steps=source.hold_steps,
             kept_only=source.kept_only, mgdata=extra, episodes_per_file=mg.get("episodes_per_file"),
             scenes_per_file=mg.get("scenes_per_file") or layout.SCENES_PER_FILE)
+        report = source.root / layout.CORRECTIONS_PATH
+        if identity and report.exists():
+            shutil.copyfile(report, writer.root / layout.CORRECTIONS_PATH)
+        return writer
 
     @classmethod
     def open(cls, root: Path, schema: DatasetSchema | None = None) -> DatasetWriter:

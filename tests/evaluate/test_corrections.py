@@ -26,6 +26,8 @@ from mgdata.evaluate.run import EvalJob, read_results, run_eval
 from mgdata.evaluate.server import PolicyServer
 from mgdata.generate.corrections import REPORT_FILE, CorrectionJob, correct
 from mgdata.record.reader import DatasetReader
+from mgdata.record.repair import repair_dataset
+from mgdata.record.rerender import RenderJob, rerender
 from mgdata.record.validate import validate_dataset
 from tests.helpers.cli import mgdata_here
 from tests.helpers.contract import check_kept_contract
@@ -131,6 +133,21 @@ def test_kept_corrections_keep_the_family_contract_and_validate(corrected) -> No
     check_kept_contract("jar", out)
     report = validate_dataset(out)
     assert report.ok, report.problems
+
+
+def test_a_render_and_a_repair_keep_the_corrections_run(corrected, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """A copy of a corrections dataset still says which run made it: its settings and its ledger."""
+    _, out = corrected
+    source = DatasetReader(out)
+    rendered = rerender(RenderJob(out, tmp_path / "rendered", size=32, cameras=("wrist",))).out
+    repaired = repair_dataset(out, tmp_path / "repaired").out
+    for copy in (rendered, repaired):
+        reader = DatasetReader(copy)
+        assert reader.num_episodes == source.num_episodes
+        assert reader.info["mgdata"]["corrections"] == source.info["mgdata"]["corrections"]
+        assert (copy / REPORT_FILE).read_bytes() == (out / REPORT_FILE).read_bytes()
+        assert validate_dataset(copy).ok
+    assert "observation.images.wrist" in DatasetReader(rendered).info["features"]
 
 
 def test_a_second_run_resumes_and_changes_nothing(corrected) -> None:  # type: ignore[no-untyped-def]
