@@ -328,6 +328,12 @@ def arm_args(spec: str, args: argparse.Namespace) -> tuple[list[str], int]:
     return ["--tasks", str(tasks), *extra], tasks
 
 
+def data_args(extra: list[str]) -> tuple[tuple[str, str], ...]:
+    """The arguments of an arm (``arm_args``) that shape its data, not its training (seed, schedule)."""
+    pairs = zip(extra[::2], extra[1::2], strict=True)
+    return tuple(p for p in pairs if p[0] not in ("--seed", "--lr-schedule"))
+
+
 def passed_on(argv: list[str]) -> list[str]:
     """``argv`` without the options an ablation sets per arm."""
     out, skip = [], False
@@ -358,14 +364,20 @@ def ablation(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
         first_heldout = args.heldout_from
     out = args.out.resolve()
     base = passed_on(sys.argv[1:])
-    reports = {}
+    reports, data_of = {}, {}  # data_of: an arm's data arguments -> the first arm that generated them
     for i, (spec, (extra, _)) in enumerate(arms.items()):
         arm_out = out / spec.replace("=", "").replace("+", "_")
         cmd = [sys.executable, str(Path(__file__).resolve()), *base, *extra, "--heldout-from",
                str(first_heldout), "--out", str(arm_out)]
         if i:
             cmd += ["--scenarios-from", str(out / specs[0].replace("=", "").replace("+", "_"))]
-        if args.reuse:
+        same = data_of.setdefault(data_args(extra), arm_out)
+        if same != arm_out:  # another seed or schedule of an earlier arm's data: train on that data
+            arm_out.mkdir(parents=True, exist_ok=True)
+            for name in ("data", "data_state"):
+                if not (arm_out / name).exists():
+                    (arm_out / name).symlink_to(same / name)
+        if args.reuse or same != arm_out:
             cmd.append("--reuse")
         if not (args.reuse and (arm_out / "report.json").is_file()):
             log(f"arm {spec}: " + " ".join(cmd[1:]))
@@ -485,7 +497,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run one arm per comma-separated spec, the same learner, steps, seed and held-out "
                    "starts, only the data changed, and print their table; a spec joins with '+': "
                    "'plain', 'dart' or 'replan' (recovery), 'a=0.05' (its amplitude), 'x5' (5x the layouts, "
-                   "--per-task each), 'seed=1001' (another training seed); e.g. plain,dart,x5,dart+seed=1001")
+                   "--per-task each), 'seed=1001' (another training seed: trained on the data of the earlier "
+                   "arm it differs from only in seed or schedule); e.g. plain,dart,x5,dart+seed=1001")
     p.add_argument("--checkpoints", type=steps_list, default=(), metavar="STEPS",
                    help="also score these saved checkpoints (comma-separated training steps, multiples of "
                    "the save interval, min(steps/4, 500)) on the held-out starts: one run's closed-loop "
