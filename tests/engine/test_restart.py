@@ -16,8 +16,7 @@ from mgdata.paths import grasps_dir
 from mgdata.record.episode import MemorySink
 from mgdata.record.physics import physics_state, set_physics_state
 from mgdata.skeleton.skeleton import load_family_recipe
-
-HAND = ("hand", "left_finger", "right_finger")
+from tests.helpers.rawdata import hand_touches
 
 
 @pytest.fixture(scope="module")
@@ -35,14 +34,7 @@ def _raw(ex: Executor, state: np.ndarray) -> tuple[float, set[str]]:
     """The lid hinge's angle (rad, raw qpos) and the bodies the hand's geoms touch, in ``state``."""
     m, d = ex.scene.model, ex.scene.data
     set_physics_state(m, d, state)
-    hand = {m.body(b).id for b in HAND}
-    touched = set()
-    for c in d.contact[: d.ncon]:
-        b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
-        if b1 in hand and b2 not in hand:
-            touched.add(m.body(b2).name)
-        if b2 in hand and b1 not in hand:
-            touched.add(m.body(b1).name)
+    touched = {m.body(b).name for b in hand_touches(m, d)}
     return float(d.qpos[m.jnt_qposadr[m.joint("jar/lid_hinge").id]]), touched
 
 

@@ -22,8 +22,8 @@ from mgdata.record.episode import MemorySink
 from mgdata.record.physics import physics_state, set_physics_state
 from mgdata.sim.particles import PARK_Z
 from mgdata.skeleton.skeleton import load_family_recipe
+from tests.helpers.rawdata import hand_touches
 
-HAND = ("hand", "left_finger", "right_finger")
 PARKED = PARK_Z / 2
 """Below this height a dust speck has been wiped (the scene parks wiped specks at ``PARK_Z``, 10 m under the
 floor)."""
@@ -71,14 +71,7 @@ def _settle(ex: Executor, seconds: float = 2.0) -> np.ndarray:
 
 def _touched(m: mujoco.MjModel, d: mujoco.MjData) -> set[str]:
     """The root bodies the hand's geoms touch."""
-    hand = {m.body(b).id for b in HAND}
-    touched = set()
-    for c in d.contact[: d.ncon]:
-        b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
-        for a, b in ((b1, b2), (b2, b1)):
-            if a in hand and b not in hand:
-                touched.add(m.body(m.body_rootid[b]).name)
-    return touched
+    return {m.body(m.body_rootid[b]).name for b in hand_touches(m, d)}
 
 
 def _restart(ex: Executor, start: np.ndarray, phases: list[str]) -> list[np.ndarray]:

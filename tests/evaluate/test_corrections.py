@@ -32,9 +32,9 @@ from mgdata.record.validate import validate_dataset
 from tests.helpers.cli import mgdata_here
 from tests.helpers.contract import check_kept_contract
 from tests.helpers.generate import jar_recipe
+from tests.helpers.rawdata import hand_touches
 from tests.helpers.record import dataset_files
 
-HAND = ("hand", "left_finger", "right_finger")
 BACK, CANDIDATES, TRIES = 8, 3, 2
 
 
@@ -75,15 +75,7 @@ def _hand_touches(model: mujoco.MjModel, state: np.ndarray, spec: int) -> set[st
     d = mujoco.MjData(model)
     mujoco.mj_setState(model, d, state, spec)
     mujoco.mj_forward(model, d)
-    hand = {model.body(b).id for b in HAND}
-    touched = set()
-    for c in d.contact[: d.ncon]:
-        b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
-        for a, b in ((b1, b2), (b2, b1)):
-            root = int(model.body_rootid[b])
-            if a in hand and root != int(model.body_rootid[a]):
-                touched.add(model.body(root).name)
-    return touched
+    return {model.body(model.body_rootid[b]).name for b in hand_touches(model, d)}
 
 
 def test_corrections_restart_before_the_failure_where_the_hand_is_free(corrected, rollouts: Path) -> None:  # type: ignore[no-untyped-def]

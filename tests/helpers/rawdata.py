@@ -63,6 +63,19 @@ def touching(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> set[int]:
     return {b for pair in pairs if body in pair for b in pair if b != body}
 
 
+HAND = ("hand", "left_finger", "right_finger")
+"""The robot's hand bodies: the palm and both fingers."""
+
+
+def hand_touches(m: mujoco.MjModel, d: mujoco.MjData) -> set[int]:
+    """The bodies outside the robot that a hand or finger geom has a MuJoCo contact with in ``d``."""
+    hand = {m.body(b).id for b in HAND}
+    robot = int(m.body_rootid[m.body(HAND[0]).id])
+    pairs = ((int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])) for c in d.contact[:d.ncon])
+    return {b for b1, b2 in pairs for a, b in ((b1, b2), (b2, b1))
+            if a in hand and int(m.body_rootid[b]) != robot}
+
+
 def subtree_geoms(m: mujoco.MjModel, root: int) -> np.ndarray:
     """Geoms of body ``root`` and its direct children (an object and its links)."""
     bodies = [b for b in range(m.nbody) if b == root or m.body_parentid[b] == root]
