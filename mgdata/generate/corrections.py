@@ -360,6 +360,7 @@ def _loop(job: CorrectionJob, todo: list[Failure], config: WorkerConfig, writer:
                         shutil.rmtree(attempt.staged, ignore_errors=True)         # kill: not twice
                         continue
                     writer.append_staged(attempt.staged)
+                writer.record_attempts(writer.recorded_attempts + len(corrected.attempts))  # the yield
                 failure = corrected.failure
                 report.rollouts.append({"rollout": failure.key, "parent": dict(failure.parent),
                                         "failure": failure.kind, "failure_step": failure.step,

@@ -23,6 +23,8 @@ class DatasetSummary:
         penetration: the deepest contact overlap over every episode's frames (m), its episode, frame and
             bodies (``None``: no episode records it); ``penetration_bound``: the gate's ``max_penetration``.
         recovery: ``info.json`` ``mgdata.recovery`` of a dataset of perturbed demonstrations (else ``None``).
+        rollouts, succeeded: the episodes that are a policy's recorded rollouts (``mgdata eval --record``),
+            and how many of them succeeded; a rollout is no attempt at a demonstration, so no yield counts it.
     """
 
     root: Path
@@ -43,6 +45,8 @@ class DatasetSummary:
     penetration: tuple[float, int, int | None, str] | None = None
     penetration_bound: float | None = None
     recovery: dict | None = None
+    rollouts: int = 0
+    succeeded: int = 0
 
     @property
     def duration_s(self) -> float:
@@ -50,7 +54,10 @@ class DatasetSummary:
 
     @property
     def yield_(self) -> float | None:
-        """Kept episodes per attempt (recorded attempts, else the draw count); ``None`` if unknown."""
+        """Kept episodes per attempt (recorded attempts, else the draw count); ``None`` if unknown or the
+        dataset is a policy's rollouts."""
+        if self.rollouts == self.episodes and self.episodes:
+            return None
         denom = self.attempts if self.attempts else self.draws
         return self.kept / denom if denom else None
 
@@ -77,6 +84,8 @@ def summarize(root: Path) -> DatasetSummary:
         draws=sum(d + 1 for d in last_draw.values()), size_bytes=size,
         penetration=max(measured, key=lambda x: x[0]) if measured else None, penetration_bound=bound,
         recovery=reader.info["mgdata"].get("recovery"),
+        rollouts=sum(m.source == "rollout" for m in metas),
+        succeeded=sum(m.source == "rollout" and m.success for m in metas),
     )
 
 
@@ -85,18 +94,24 @@ def format_summary(s: DatasetSummary) -> list[str]:
     def counts(d: dict[str, int]) -> str:
         return ", ".join(f"{k} {v}" for k, v in d.items()) or "none"
 
-    if s.yield_ is None:
+    if s.rollouts == s.episodes and s.episodes:
+        yld = (f"none: {s.episodes} policy rollouts ({s.succeeded} succeeded), no demonstrations "
+               "(mgdata corrections restarts the failed ones)")
+    elif s.yield_ is None:
         yld = "unknown"
     elif s.attempts:
         yld = f"{s.yield_:.1%} ({s.kept} kept of {s.attempts} attempts)"
     else:
         yld = f"{s.yield_:.1%} ({s.kept} kept of {s.draws} draws, from the draw indices)"
+    episodes = f"{s.kept} kept, {s.negatives} labelled negatives, {s.unsafe} unsafe"
+    if s.rollouts == s.episodes and s.episodes:
+        episodes = f"policy rollouts: {s.succeeded} succeeded, {s.unsafe} unsafe"
     recovery = [] if not s.recovery else [
         f"recovery    {s.recovery.get('mode')}, amplitude {s.recovery.get('amplitude')} rad "
         f"(action: the plan's targets; {layout.EXECUTED_ACTION}: what ran)"]
     return [
         f"dataset     {s.root}",
-        f"episodes    {s.episodes} ({s.kept} kept, {s.negatives} labelled negatives, {s.unsafe} unsafe)",
+        f"episodes    {s.episodes} ({episodes})",
         f"frames      {s.frames} at {s.fps} Hz ({s.duration_s / 60:.1f} min)",
         f"cameras     {', '.join(s.cameras) or 'none'} ({s.codec})",
         f"tasks       {s.tasks} prompts",

@@ -142,6 +142,18 @@ def test_a_render_and_a_repair_keep_the_corrections_run(corrected, tmp_path: Pat
     assert "observation.images.wrist" in DatasetReader(rendered).info["features"]
 
 
+def test_info_tells_rollouts_from_demonstrations_and_counts_every_try(corrected, rollouts: Path) -> None:  # type: ignore[no-untyped-def]
+    _, out = corrected
+    shown = mgdata_here("info", rollouts)
+    assert shown.returncode == 0, shown.stderr
+    assert "episodes    2 (policy rollouts: 0 succeeded, 2 unsafe)" in shown.stdout, shown.stdout
+    assert "yield       none: 2 policy rollouts (0 succeeded), no demonstrations" in shown.stdout
+    tries = sum(len(entry["tries"]) for entry in json.loads((out / REPORT_FILE).read_text())["rollouts"])
+    kept = DatasetReader(out).num_episodes
+    shown = mgdata_here("info", out)
+    assert f"({kept} kept of {tries} attempts)" in shown.stdout, shown.stdout
+
+
 def test_a_second_run_resumes_and_changes_nothing(corrected) -> None:  # type: ignore[no-untyped-def]
     job, out = corrected
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file() and ".work" not in p.parts}
