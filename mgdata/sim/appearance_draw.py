@@ -36,6 +36,9 @@ Recipe table (optional; the shipped recipes have none, so appearance is fixed)::
     table_kinds = ["wood", "planks", "plaster", "ceramic"]
     floor_kinds = ["planks", "wood", "plaster", "fabric"]
     wall_kinds = ["plaster", "fabric", "cardboard"]
+    table_colors = [[0.62, 0.47, 0.32], …]   # plausible base colours (RGB, 0…1): a draw picks one and
+    floor_colors = [[0.55, 0.50, 0.45], …]   # scales each channel by 0.9…1.1 (defaults: AppearanceSettings)
+    wall_colors = [[0.68, 0.74, 0.66], …]
 
 Example::
 
@@ -59,20 +62,12 @@ from mgdata.errors import RecipeError
 from mgdata.sim.cameras import THIRD_PERSON
 from mgdata.sim.textures import KINDS, texture
 
+RGB = tuple[float, float, float]
 APPEARANCE_STREAM = 0x41505052
 """Mixed into every draw's seed sequence, so appearance draws never coincide with physics draws."""
 SURFACES = {"table": ("table/top", "table_mat"), "floor": ("floor", "floor_mat"),
             "walls": ("wall_", "wall_mat")}
 """Surface -> (geom name or prefix, material/texture name) in scenes built by ``mgdata.sim.materials``."""
-PALETTES: dict[str, tuple[tuple[float, float, float], ...]] = {
-    "table": ((0.62, 0.47, 0.32), (0.76, 0.62, 0.45), (0.45, 0.32, 0.22), (0.85, 0.84, 0.80),
-              (0.35, 0.36, 0.38), (0.70, 0.72, 0.74)),
-    "floor": ((0.55, 0.50, 0.45), (0.40, 0.30, 0.22), (0.62, 0.62, 0.60), (0.30, 0.32, 0.35),
-              (0.72, 0.66, 0.55)),
-    "walls": ((0.68, 0.74, 0.66), (0.90, 0.88, 0.82), (0.75, 0.80, 0.88), (0.86, 0.76, 0.66),
-              (0.60, 0.60, 0.62), (0.92, 0.92, 0.92)),
-}
-"""Plausible base colours per surface; a draw picks one and shifts it a little."""
 TABLE_BOUNDS = ((-0.2, 1.0), (-0.7, 0.7))
 """m, world x and y: where distractors may stand (the table top, less a 5 cm margin)."""
 ROBOT_KEEP_OUT = 0.3
@@ -110,10 +105,18 @@ class AppearanceSettings:
     table_kinds: tuple[str, ...] = ("wood", "planks", "plaster", "ceramic")
     floor_kinds: tuple[str, ...] = ("planks", "wood", "plaster", "fabric")
     wall_kinds: tuple[str, ...] = ("plaster", "fabric", "cardboard")
+    table_colors: tuple[RGB, ...] = ((0.62, 0.47, 0.32), (0.76, 0.62, 0.45), (0.45, 0.32, 0.22),
+                                     (0.85, 0.84, 0.80), (0.35, 0.36, 0.38), (0.70, 0.72, 0.74))
+    floor_colors: tuple[RGB, ...] = ((0.55, 0.50, 0.45), (0.40, 0.30, 0.22), (0.62, 0.62, 0.60),
+                                     (0.30, 0.32, 0.35), (0.72, 0.66, 0.55))
+    wall_colors: tuple[RGB, ...] = ((0.68, 0.74, 0.66), (0.90, 0.88, 0.82), (0.75, 0.80, 0.88),
+                                    (0.86, 0.76, 0.66), (0.60, 0.60, 0.62), (0.92, 0.92, 0.92))
 
     def to_info(self) -> dict[str, Any]:
         """JSON-ready settings (``info.json`` ``mgdata.appearance``)."""
-        return {f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v for f in fields(self)}
+        def plain(v: Any) -> Any:
+            return [plain(x) for x in v] if isinstance(v, tuple) else v
+        return {f.name: plain(getattr(self, f.name)) for f in fields(self)}
 
 
 _RANGES = {"saturation": (0.0, 3.0), "value": (0.0, 3.0), "key_light": (0.0, 1.0), "fill_light": (0.0, 1.0),
@@ -121,6 +124,11 @@ _RANGES = {"saturation": (0.0, 3.0), "value": (0.0, 3.0), "key_light": (0.0, 1.0
            "distractor_size": (0.005, 0.15)}
 _SCALARS = {"hue": (0.0, 0.5), "light_azimuth_deg": (0.0, 180.0), "camera_shift": (0.0, 0.1),
             "camera_turn_deg": (0.0, 10.0), "distractor_clearance": (0.0, 1.0)}
+
+
+def _is_rgb(value: Any) -> bool:
+    return isinstance(value, list) and len(value) == 3 and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and 0.0 <= x <= 1.0 for x in value)
 
 
 def parse_appearance(table: Mapping[str, Any], where: str) -> AppearanceSettings:
@@ -144,6 +152,10 @@ def parse_appearance(table: Mapping[str, Any], where: str) -> AppearanceSettings
             if isinstance(raw, bool) or not isinstance(raw, int | float) or not low <= raw <= high:
                 raise RecipeError(f"{at} = {raw!r}: expected a number in [{low}, {high}]")
             values[key] = float(raw)
+        elif key.endswith("_colors"):
+            if not (isinstance(raw, list) and raw and all(_is_rgb(c) for c in raw)):
+                raise RecipeError(f"{at} = {raw!r}: expected a non-empty list of [r, g, b] in 0…1")
+            values[key] = tuple(tuple(float(x) for x in c) for c in raw)
         else:  # texture kinds
             if not (isinstance(raw, list) and raw and all(k in KINDS for k in raw)):
                 raise RecipeError(f"{at} = {raw!r}: expected a non-empty list of texture kinds from "
@@ -283,8 +295,10 @@ def draw_appearance(settings: AppearanceSettings, model: mujoco.MjModel, data: m
     rng = np.random.default_rng(seed)
     st = settings
     surfaces = {}
-    for surface, kinds in (("table", st.table_kinds), ("floor", st.floor_kinds), ("walls", st.wall_kinds)):
-        base = PALETTES[surface][int(rng.integers(len(PALETTES[surface])))]
+    for surface, kinds, colors in (("table", st.table_kinds, st.table_colors),
+                                   ("floor", st.floor_kinds, st.floor_colors),
+                                   ("walls", st.wall_kinds, st.wall_colors)):
+        base = colors[int(rng.integers(len(colors)))]
         rgb = np.clip(np.asarray(base) * rng.uniform(0.9, 1.1, 3), 0.0, 1.0)
         surfaces[surface] = {"kind": kinds[int(rng.integers(len(kinds)))], "rgb": [float(x) for x in rgb],
                              "specular": float(rng.uniform(0.0, 0.3)), "seed": int(rng.integers(2 ** 31))}

@@ -5,6 +5,7 @@ dataset whose draw 0 is generation's own, byte for byte."""
 
 from __future__ import annotations
 
+import colorsys
 import subprocess
 import sys
 from pathlib import Path
@@ -80,6 +81,27 @@ def test_a_draw_reproduces_from_the_recorded_seed_and_k_changes_it(pair: tuple[P
         assert once[cam].tobytes() == again[cam].tobytes()
 
 
+def test_the_recipe_colours_are_what_the_surfaces_are_drawn_from(pair: tuple[Path, Path]) -> None:
+    reader = DatasetReader(pair[1])
+    model = mujoco.MjModel.from_binary_path("s.mjb", {"s.mjb": reader.scene_mjb(0)})
+    states, meta = list(reader.episode(0).physics_state), reader.record(0).meta
+    walls = ((0.2, 0.4, 0.6), (0.6, 0.4, 0.2))
+    settings = parse_appearance({"enabled": True, "table_colors": [[1.0, 0.0, 0.0]],
+                                 "wall_colors": [list(c) for c in walls]}, "test")
+    top = model.geom("table/top").id
+    for k in range(6):
+        draw = episode_appearance(settings, model, states, meta, k=k)
+        copy = mujoco.MjModel.from_binary_path("s.mjb", {"s.mjb": reader.scene_mjb(0)})
+        draw.apply(copy)
+        drawn = draw.record()["surfaces"]["table"]["rgb"]
+        assert drawn[1] == drawn[2] == 0.0 and 0.9 <= drawn[0] <= 1.0, drawn
+        # what the cameras see (the rig's model copy, raw): that red, with the table's own small tint
+        hue = colorsys.rgb_to_hsv(*(float(x) for x in copy.geom_rgba[top, :3]))[0]
+        assert min(hue, 1.0 - hue) <= settings.hue + 1e-6, copy.geom_rgba[top]
+        wall = np.asarray(draw.record()["surfaces"]["walls"]["rgb"])
+        assert any(np.all(np.abs(wall - np.asarray(c)) <= 0.1 * np.asarray(c) + 1e-9) for c in walls), wall
+
+
 def settings_render():  # type: ignore[no-untyped-def]
     from mgdata.sim.config import load_sim_config
 
@@ -128,7 +150,9 @@ def test_render_appearance_k_draws_of_an_existing_dataset(pair: tuple[Path, Path
 
 def test_bad_appearance_input_is_one_error(pair: tuple[Path, Path], tmp_path: Path) -> None:
     for table, words in (({"hue": 2.0}, "hue"), ({"colour": 1}, "unknown key"), ({"table_kinds": ["marble"]},
-                         "texture kinds"), ({"distractors": [0.5, 2]}, "whole numbers")):
+                         "texture kinds"), ({"distractors": [0.5, 2]}, "whole numbers"),
+                         ({"table_colors": [[1.2, 0.0, 0.0]]}, r"\[r, g, b\]"),
+                         ({"wall_colors": []}, "non-empty")):
         with pytest.raises(RecipeError, match=words):
             parse_appearance(table, "jar.toml: [appearance]")
     assert AppearanceSettings().enabled is False  # off unless a recipe turns it on
