@@ -282,8 +282,9 @@ def score_checkpoints(args: argparse.Namespace, out: Path, scenarios: Path,
     results = {}
     for steps in args.checkpoints:
         ckpt = out / "train" / "checkpoints" / f"{steps:06d}" / "pretrained_model"
-        if not ckpt.is_dir():
-            raise SystemExit(f"--checkpoints: no checkpoint {ckpt} (saved every {save_interval(args)} steps)")
+        if not ckpt.is_dir():  # training stopped before it (--train-timeout): the rest of the report stands
+            log(f"--checkpoints {steps}: not scored, no checkpoint {ckpt} (training stopped earlier?)")
+            continue
         server = Server(args, ckpt, out / f"serve_{steps}.log")
         try:
             records = evaluate(args, server.url, scenarios, out / f"eval_heldout_{steps}", env)
