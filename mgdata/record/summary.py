@@ -53,10 +53,15 @@ class DatasetSummary:
         return self.frames / self.fps if self.fps else 0.0
 
     @property
+    def only_rollouts(self) -> bool:
+        """Every episode is a policy's recorded rollout (no demonstration at all)."""
+        return self.rollouts == self.episodes > 0
+
+    @property
     def yield_(self) -> float | None:
         """Kept episodes per attempt (recorded attempts, else the draw count); ``None`` if unknown or the
         dataset is a policy's rollouts."""
-        if self.rollouts == self.episodes and self.episodes:
+        if self.only_rollouts:
             return None
         denom = self.attempts if self.attempts else self.draws
         return self.kept / denom if denom else None
@@ -94,7 +99,7 @@ def format_summary(s: DatasetSummary) -> list[str]:
     def counts(d: dict[str, int]) -> str:
         return ", ".join(f"{k} {v}" for k, v in d.items()) or "none"
 
-    if s.rollouts == s.episodes and s.episodes:
+    if s.only_rollouts:
         yld = (f"none: {s.episodes} policy rollouts ({s.succeeded} succeeded), no demonstrations "
                "(mgdata corrections restarts the failed ones)")
     elif s.yield_ is None:
@@ -104,7 +109,7 @@ def format_summary(s: DatasetSummary) -> list[str]:
     else:
         yld = f"{s.yield_:.1%} ({s.kept} kept of {s.draws} draws, from the draw indices)"
     episodes = f"{s.kept} kept, {s.negatives} labelled negatives, {s.unsafe} unsafe"
-    if s.rollouts == s.episodes and s.episodes:
+    if s.only_rollouts:
         episodes = f"policy rollouts: {s.succeeded} succeeded, {s.unsafe} unsafe"
     recovery = [] if not s.recovery else [
         f"recovery    {s.recovery.get('mode')}, amplitude {s.recovery.get('amplitude')} rad "
