@@ -294,6 +294,28 @@ def score_checkpoints(args: argparse.Namespace, out: Path, scenarios: Path,
     return results
 
 
+def score_average(args: argparse.Namespace, out: Path, last: int, scenarios: Path,
+                  env: dict[str, str]) -> dict[str, dict]:
+    """``--average SPAN``: the uniform mean of the weights saved over the last SPAN training steps
+    (``average_checkpoints.py``) served and scored on the held-out starts (``heldout avg@FIRST-LAST``)."""
+    first = max(save_interval(args), last - args.average)
+    steps = list(range(first, last + 1, save_interval(args)))
+    ckpts = [out / "train" / "checkpoints" / f"{n:06d}" / "pretrained_model" for n in steps]
+    missing = [c for c in ckpts if not c.is_dir()]
+    if missing:
+        log(f"--average {args.average}: not scored, no checkpoint {missing[0]}")
+        return {}
+    averaged = out / f"averaged_{first}-{last}"
+    run([args.lerobot_python, str(REPO / "benchmarks" / "average_checkpoints.py"), str(averaged),
+         *map(str, ckpts)], {}, out / f"averaged_{first}-{last}.log")
+    server = Server(args, averaged, out / f"serve_avg_{first}-{last}.log")
+    try:
+        records = evaluate(args, server.url, scenarios, out / f"eval_heldout_avg_{first}-{last}", env)
+    finally:
+        server.close()
+    return {f"heldout avg@{first}-{last}": summarise(records, "heldout")}
+
+
 def summarise(records: list[dict], label: str) -> dict:
     from mgdata.metrics import compute_metrics, parse_record
 
@@ -504,6 +526,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also score these saved checkpoints (comma-separated training steps, multiples of "
                    "the save interval, min(steps/4, 500)) on the held-out starts: one run's closed-loop "
                    "rate swings from checkpoint to checkpoint, and their mean is a steadier figure")
+    p.add_argument("--average", type=int, default=0, metavar="SPAN",
+                   help="also score the uniform mean of the weights saved over the last SPAN training "
+                   "steps (every save interval; average_checkpoints.py) on the held-out starts")
     p.add_argument("--stop-after", choices=("data", "train"), default=None)
     p.add_argument("--record", action="store_true",
                    help="record the trained-layout rollouts (mgdata eval --record: eval_seen/rollouts), the "
@@ -599,16 +624,20 @@ def main() -> None:
         server.close()
     if heldout:
         results.update(score_checkpoints(args, out, scen["heldout"], {"MGDATA_ROOT": str(eval_root)}))
+        if args.average:
+            results.update(score_average(args, out, timing["steps"], scen["heldout"],
+                                         {"MGDATA_ROOT": str(eval_root)}))
     report["eval"] = results
     report["wall_s"] = round(time.time() - t_start, 1)
     (out / "report.json").write_text(json.dumps(report, indent=1, default=str))
     print(f"\n{args.protocol} protocol, {args.family}: {report['data']['episodes']} demos, "
           f"{timing['steps']} steps ({timing['wall_s']} s wall, {timing['cpu_s']} s CPU)")
-    print(f"{'condition':<10} {'n':>4} {'SSR':>6} {'TSR':>6} {'EVR':>6} {'Eng.':>6} {'Safe|Eng':>8}")
+    w = max(10, *map(len, results))
+    print(f"{'condition':<{w}} {'n':>4} {'SSR':>6} {'TSR':>6} {'EVR':>6} {'Eng.':>6} {'Safe|Eng':>8}")
     for c, r in results.items():
         def pct(v: object) -> str:
             return "-" if v is None else f"{float(v):5.1f}%"
-        print(f"{c:<10} {r['n']:>4} {pct(r.get('ssr')):>6} {pct(r.get('tsr')):>6} {pct(r.get('evr')):>6} "
+        print(f"{c:<{w}} {r['n']:>4} {pct(r.get('ssr')):>6} {pct(r.get('tsr')):>6} {pct(r.get('evr')):>6} "
               f"{pct(r.get('eng')):>6} {pct(r.get('safe_given_eng')):>8}  ends {r['ends']}")
     print("loss curve (step, loss):", timing["loss"])
 
