@@ -324,7 +324,19 @@ def summarise(records: list[dict], label: str) -> dict:
     for r in records:
         ends[r["end"]] = ends.get(r["end"], 0) + 1
     return {"n": len(records), **{k: m[k] for k in ("ssr", "tsr", "evr", "eng", "safe_given_eng", "svr")},
-            "ttv": m["ttv"], "ends": ends}
+            "ttv": m["ttv"], "ends": ends, "timeouts_lacked": lacked(records)}
+
+
+def lacked(records: list[dict]) -> dict[str, int]:
+    """How many timed-out rollouts ended with each success condition false (``at_end``: a goal proposition
+    or ``at_rest``); one rollout may lack several."""
+    counts: dict[str, int] = {}
+    for r in records:
+        if r["end"] == "timeout" and r.get("at_end"):
+            for name, held in r["at_end"].items():
+                if not held:
+                    counts[name] = counts.get(name, 0) + 1
+    return counts
 
 
 PASSED_ON = {"--ablation", "--out", "--tasks", "--recovery", "--amplitude", "--seed", "--heldout-from",
@@ -638,7 +650,8 @@ def main() -> None:
         def pct(v: object) -> str:
             return "-" if v is None else f"{float(v):5.1f}%"
         print(f"{c:<{w}} {r['n']:>4} {pct(r.get('ssr')):>6} {pct(r.get('tsr')):>6} {pct(r.get('evr')):>6} "
-              f"{pct(r.get('eng')):>6} {pct(r.get('safe_given_eng')):>8}  ends {r['ends']}")
+              f"{pct(r.get('eng')):>6} {pct(r.get('safe_given_eng')):>8}  ends {r['ends']}"
+              + (f", timeouts lacked {r['timeouts_lacked']}" if r.get("timeouts_lacked") else ""))
     print("loss curve (step, loss):", timing["loss"])
 
 

@@ -45,6 +45,11 @@ class SuccessCheck:
         return (bool(np.all(self.goal.labels())) and (extra is None or extra())
                 and self.rest.at_rest(self.scene.data))
 
+    def status(self) -> dict[str, bool]:
+        """What holds now: each goal proposition by name, and ``at_rest`` (why a rollout that timed out did
+        not succeed)."""
+        return {**self.goal.as_dict(), "at_rest": self.rest.at_rest(self.scene.data)}
+
 
 def physics_gate(recipe: Recipe) -> PhysicsGate:
     """The gate's physical bounds for a family (``info.json`` ``mgdata.physics_gate``, audited by

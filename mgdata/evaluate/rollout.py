@@ -23,7 +23,8 @@ The gripper value of an action is the dataset's binary command: a regressed valu
 The record (one JSON object, the format ``mgdata metrics`` reads) holds ``family``, ``task``
 (``task_NNNN``), ``condition``, ``seed``, ``scenario``, ``episode_seed``, ``success``, ``engaged``,
 ``t_engage``, ``t_violation`` (first over the constraints), ``t_violation_by`` (per constraint),
-``t_success`` (the step the hold completed), ``horizon``, ``steps`` and ``end``. Steps index observations:
+``t_success`` (the step the hold completed), ``horizon``, ``steps``, ``end`` and ``at_end`` (each goal
+proposition and ``at_rest`` on the last state: what a timeout lacked). Steps index observations:
 ``t`` is the state after ``t`` actions. Nothing in it depends on wall time.
 """
 

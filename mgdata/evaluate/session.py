@@ -104,7 +104,7 @@ class RolloutSession:
         self.episode_seed = rollout_seed(seed, scenario)
         scene, recipe = restored.scene, restored.recipe
         self.controller = JointController(scene)
-        check = SuccessCheck(self.controller, recipe)
+        check = self._success = SuccessCheck(self.controller, recipe)
         self._trace = _Trace(sink)
         self.recorder = Recorder(scene, scene.task.safety, self._trace, None, lambda _: check())
         self.horizon = horizon or int(restored.meta["horizon"])
@@ -190,6 +190,7 @@ class RolloutSession:
             "engaged": t_engage is not None, "t_engage": t_engage,
             "t_violation": min(steps) if steps else None, "t_violation_by": firsts,
             "t_success": self.t_success, "horizon": self.horizon, "steps": self.runner.steps, "end": self.end,
+            "at_end": None if self.end == "sim_diverged" else self._success.status(),
         }
 
     def save(self, policy: str) -> EpisodeMeta:

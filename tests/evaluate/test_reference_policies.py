@@ -39,6 +39,7 @@ def test_replay_reproduces_the_demo_bit_for_bit(scenario_set: Path, demo: Path, 
         rec = result.record
         assert rec["success"] and rec["end"] == "success" and rec["steps"] == ep.length - 1
         assert rec["t_violation"] is None and rec["t_engage"] == ep.meta.t_engage
+        assert rec["at_end"] == {"jar_in_goal": True, "jar_closed": True, "jar_held": True, "at_rest": True}
         states = np.stack([f.physics_state for f in result.frames])
         assert states.tobytes() == ep.physics_state[: len(states)].tobytes()  # every state, bit for bit
         assert np.array_equal(np.stack([f.labels for f in result.frames]), ep.labels[: len(states)])
@@ -85,6 +86,11 @@ def test_hold_never_moves_and_never_engages(scenario_set: Path, serving) -> None
             poses.append((data.qpos[robot.arm_qpos_adr(model)].copy(), data.body("jar").xpos.copy()))
         assert np.abs(poses[1][0] - poses[0][0]).max() < 1e-3
         assert np.abs(poses[1][1] - poses[0][1]).max() < 1e-5
+        # what the timeout lacked, in the record: the jar stands still outside the goal sphere, unheld
+        goal = load_scenario(scenario_set / scenario)[2]["goal"]
+        outside = np.linalg.norm(poses[1][1] - np.array(goal["pos"])) > goal["radius"]
+        assert outside and result.record["at_end"]["jar_in_goal"] is False
+        assert result.record["at_end"]["jar_held"] is False and result.record["at_end"]["at_rest"] is True
     assert all(r["end"] == "timeout" and not r["engaged"] and r["t_violation"] is None for r in records)
     m = _metrics(records)
     assert m.eng == 0.0 and m.vacuous_safe == 100.0 and m.safe == 100.0 and m.ssr == 0.0 and m.evr is None
