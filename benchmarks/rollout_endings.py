@@ -57,8 +57,8 @@ def main() -> None:
         passed += bool(len(inside))
     if ends:
         print(f"\n{len(ends)} failed rollouts: {passed} passed through the goal sphere (radius "
-              f"{radius:.3f} m); distance to its centre at the end median {np.median(ends):.3f} m, closest median "
-              f"{np.median(closest):.3f} m")
+              f"{radius:.3f} m); distance to its centre at the end median {np.median(ends):.3f} m, "
+              f"closest median {np.median(closest):.3f} m")
 
 
 if __name__ == "__main__":
